@@ -1,0 +1,1 @@
+"""The streaming agent: rolling windows per loop, quantification, reports."""

@@ -1,0 +1,1 @@
+"""Pydantic message models: the only contract between processes."""

@@ -1,0 +1,1 @@
+"""The simulated stiction loop: valve, process, disturbances, extensions, batch simulator."""

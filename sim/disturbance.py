@@ -1,0 +1,67 @@
+"""Disturbances of thesis 4.2 with the relative amplitudes of ``spec/thesis-loop.md``.
+
+A disturbance of coefficient c on the input is ``c * RMS(MV_clean)`` times a unit
+shape, on the output ``c * RMS(PV_clean)`` times a unit shape, where ``*_clean``
+is the same loop without disturbance over the kept samples (mean removed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.signal import lfilter
+
+Shape = Literal["sine", "gaussian", "brownian"]
+Where = Literal["input", "output"]
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    shape: Shape
+    where: Where
+    coefficient: float
+    omega_rad_s: float | None = None
+    """Angular frequency of a sine, rad/s."""
+
+    def __post_init__(self):
+        if self.shape not in ("sine", "gaussian", "brownian"):
+            raise ValueError(f"unknown disturbance shape {self.shape!r}: expected sine, gaussian or brownian")
+        if self.where not in ("input", "output"):
+            raise ValueError(f"disturbance must act on 'input' or 'output', not {self.where!r}")
+        if self.shape == "sine" and not self.omega_rad_s:
+            raise ValueError("a sine disturbance needs omega_rad_s > 0")
+        if not np.isfinite(self.coefficient) or self.coefficient < 0:
+            raise ValueError(f"disturbance coefficient must be finite and >= 0, got {self.coefficient}")
+
+    def label(self) -> str:
+        shape = f"sine({self.omega_rad_s:g})" if self.shape == "sine" else self.shape
+        return f"{self.where}, {self.coefficient:g} {shape}"
+
+
+def kasdin_ar_coefficients(alpha: float, order: int = 63) -> np.ndarray:
+    """AR filter of Kasdin's power-law noise: ``a0 = 1, a_k = (k - 1 - alpha/2) a_{k-1} / k``."""
+    a = np.empty(order + 1)
+    a[0] = 1.0
+    for k in range(1, order + 1):
+        a[k] = (k - 1 - alpha / 2) * a[k - 1] / k
+    return a
+
+
+def unit_shape(shape: Shape, n_samples: int, ts_s: float, rng: np.random.Generator,
+               omega_rad_s: float | None = None) -> np.ndarray:
+    """The unit disturbance shape of thesis 4.2 over a record of ``n_samples``."""
+    if shape == "sine":
+        return np.sin(omega_rad_s * ts_s * np.arange(n_samples))
+    white = rng.standard_normal(n_samples)
+    if shape == "gaussian":
+        return white
+    coloured = lfilter([1.0], kasdin_ar_coefficients(2.0), white)
+    coloured = coloured - coloured.mean()
+    return coloured / np.sqrt(np.mean(coloured**2))
+
+
+def rms(x: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Root mean square after removing the mean."""
+    return np.sqrt(np.mean((x - x.mean(axis=axis, keepdims=True)) ** 2, axis=axis))

@@ -1,0 +1,44 @@
+"""The training grid and the 20 test cases of thesis 4.2 (spec/thesis-loop.md)."""
+
+from __future__ import annotations
+
+from sim.disturbance import Disturbance
+from sim.loop import LoopSpec
+from sim.valve import lbf_to_pct
+
+
+def training_grid_lbf() -> list[tuple[float, float]]:
+    """``for fs in 500, 490, ..., 10: for fd in fs-10, fs-20, ..., 0``: 1275 (fs, fd) pairs in lbf."""
+    return [(float(fs), float(fd)) for fs in range(500, 0, -10) for fd in range(fs - 10, -1, -10)]
+
+
+def training_specs(loop: str = "level", valve: str = "physical") -> list[LoopSpec]:
+    return [LoopSpec(float(lbf_to_pct(fs)), float(lbf_to_pct(fd)), loop=loop, valve=valve)
+            for fs, fd in training_grid_lbf()]
+
+
+NOISE_FREE_CASES: dict[str, tuple[float, float]] = {
+    "C1": (97.40, 64.40), "C2": (47.20, 4.60), "C3": (73.80, 69.00), "C4": (70.40, 21.00),
+    "C5": (62.60, 16.80), "C6": (10.60, 4.80), "C7": (16.00, 11.20), "C8": (9.40, 6.00),
+    "C9": (33.20, 19.40), "C10": (64.80, 7.20),
+}
+
+NOISY_CASES: dict[str, tuple[float, float, Disturbance]] = {
+    "N1": (91.40, 20.40, Disturbance("sine", "output", 0.1, 4.0)),
+    "N2": (13.20, 8.80, Disturbance("sine", "output", 0.06, 0.1)),
+    "N3": (17.40, 13.00, Disturbance("sine", "input", 0.15, 0.2)),
+    "N4": (46.80, 4.00, Disturbance("gaussian", "output", 0.1)),
+    "N5": (29.00, 16.00, Disturbance("gaussian", "output", 0.2)),
+    "N6": (17.80, 8.00, Disturbance("gaussian", "input", 0.3)),
+    "N7": (86.00, 42.00, Disturbance("brownian", "output", 0.1)),
+    "N8": (100.00, 67.60, Disturbance("brownian", "output", 0.1)),
+    "N9": (47.20, 10.40, Disturbance("brownian", "input", 0.1)),
+    "N10": (57.80, 22.20, Disturbance("brownian", "output", 0.1)),
+}
+
+
+def test_case_specs(seed: int = 0) -> dict[str, LoopSpec]:
+    """C1-C10 and N1-N10 of thesis Figures 4.2 and 4.5, fs/fd in percent of 500 lbf."""
+    cases = {name: LoopSpec(fs, fd) for name, (fs, fd) in NOISE_FREE_CASES.items()}
+    cases.update({name: LoopSpec(fs, fd, disturbance=d, seed=seed) for name, (fs, fd, d) in NOISY_CASES.items()})
+    return cases

@@ -1,0 +1,265 @@
+"""The sampled stiction loop (spec/thesis-loop.md), vectorised across many loops.
+
+Per sample k (Ts = 1 s, thesis Table 2.2):
+
+1. ``PV[k] = y(k Ts) + z[k]``; positional PI: ``OP[k] = Kc (e[k] + Ts/Ti sum e[j])``
+2. ``MV[k]`` is the stem position at ``k Ts``;
+3. over ``[k Ts, (k+1) Ts)`` the valve is driven by OP[k] (through any deadband and
+   actuator lag) and the process by ``MV(t) + w[k]``.
+
+Every loop in a batch has its own fs/fd, valve model, process, disturbance and
+extensions.  The stem jumps in closed form (``sim.valve``), the plant advances with
+its exact discretisation (``sim.process``), so one sample costs a few dozen numpy
+operations on arrays of all loops at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from sim.disturbance import Disturbance, rms, unit_shape
+from sim.extensions import Extensions, backlash
+from sim.process import LOOPS, continuous_plant, discretise
+from sim.valve import Friction, lagged_valve_step, pct_to_lbf, valve_step
+
+TS_S = 1.0
+DURATION_S = 2000.0
+WARMUP_S = 1000.0
+"""Samples before this are dropped: the limit cycle is established by then (spec)."""
+
+ValveKind = Literal["physical", "he"]
+
+
+@dataclass(frozen=True)
+class LoopSpec:
+    """Everything that defines one simulated loop."""
+
+    fs_pct: float
+    fd_pct: float
+    loop: str = "level"
+    valve: ValveKind = "physical"
+    disturbance: Disturbance | None = None
+    extensions: Extensions = field(default_factory=Extensions)
+    seed: int = 0
+    sp_pct: float = 1.0
+
+    def __post_init__(self):
+        if self.loop not in LOOPS:
+            raise ValueError(f"unknown loop {self.loop!r}: expected one of {sorted(LOOPS)}")
+        if self.valve not in ("physical", "he"):
+            raise ValueError(f"unknown valve model {self.valve!r}: expected 'physical' or 'he'")
+        if not (np.isfinite(self.fs_pct) and np.isfinite(self.fd_pct)):
+            raise ValueError("fs_pct and fd_pct must be finite")
+        if not 0 <= self.fd_pct <= self.fs_pct:
+            raise ValueError(f"need 0 <= fd_pct <= fs_pct, got fs_pct={self.fs_pct}, fd_pct={self.fd_pct}")
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """Named signals of a batch: each ``(n_loops, n_samples)``, percent of span; ``t_s`` in s."""
+
+    specs: tuple[LoopSpec, ...]
+    t_s: np.ndarray
+    op: np.ndarray
+    pv: np.ndarray
+    sp: np.ndarray
+    mv: np.ndarray
+
+    def kept(self, warmup_s: float = WARMUP_S) -> SimResult:
+        """The samples after the warm-up (the thesis's pattern: samples 1000..1999)."""
+        i = int(np.searchsorted(self.t_s, warmup_s))
+        return SimResult(self.specs, self.t_s[i:], self.op[:, i:], self.pv[:, i:], self.sp[:, i:], self.mv[:, i:])
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Per-loop parameters of a batch, as arrays over loops."""
+
+    kc: np.ndarray
+    ti_s: np.ndarray
+    sp: np.ndarray
+    friction: Friction
+    phi: np.ndarray  # (n, 2, 2)
+    gamma_now: np.ndarray  # (n, 2)
+    gamma_prev: np.ndarray
+    gamma_w: np.ndarray
+    c: np.ndarray  # (n, 2)
+    delay: np.ndarray  # (n,) int samples
+    deadband_pct: np.ndarray
+    actuator_tau_s: np.ndarray
+
+
+def _friction(specs: Sequence[LoopSpec]) -> Friction:
+    fs_lbf = pct_to_lbf([s.fs_pct for s in specs])
+    fd_lbf = pct_to_lbf([s.fd_pct for s in specs])
+    physical = Friction.physical(fs_lbf, fd_lbf)
+    he = Friction.he(fs_lbf / physical.lbf_per_pct, fd_lbf / physical.lbf_per_pct)
+    is_he = np.array([s.valve == "he" for s in specs])
+
+    def pick(a, b):
+        return np.where(is_he, np.broadcast_to(b, is_he.shape), np.broadcast_to(a, is_he.shape))
+
+    return Friction(pick(physical.fs_lbf, he.fs_lbf), pick(physical.stop_lbf, he.stop_lbf),
+                    pick(physical.slip_s, he.slip_s), pick(physical.lbf_per_pct, he.lbf_per_pct))
+
+
+def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
+    plants = {}
+    for s in specs:
+        e = s.extensions
+        key = (s.loop, e.gain_ratio, e.time_constant_s, e.sensor_tau_s, e.dead_time_s)
+        if key not in plants:
+            A, B, C = continuous_plant(LOOPS[s.loop], e.gain_ratio, e.time_constant_s, e.sensor_tau_s)
+            plants[key] = discretise(A, B, C, ts_s, e.dead_time_s)
+    per_loop = [plants[(s.loop, s.extensions.gain_ratio, s.extensions.time_constant_s,
+                        s.extensions.sensor_tau_s, s.extensions.dead_time_s)] for s in specs]
+
+    def stack(name):
+        return np.stack([getattr(p, name) for p in per_loop])
+
+    return Batch(
+        kc=np.array([LOOPS[s.loop].controller_gain for s in specs]),
+        ti_s=np.array([LOOPS[s.loop].integral_time_s for s in specs]),
+        sp=np.array([s.sp_pct for s in specs]),
+        friction=_friction(specs),
+        phi=stack("phi"), gamma_now=stack("gamma_now"), gamma_prev=stack("gamma_prev"),
+        gamma_w=stack("gamma_w"), c=stack("c"), delay=stack("delay_samples").astype(int),
+        deadband_pct=np.array([s.extensions.deadband_pct for s in specs]),
+        actuator_tau_s=np.array([s.extensions.actuator_tau_s for s in specs]),
+    )
+
+
+def _external_oscillation(specs: Sequence[LoopSpec], t_s: np.ndarray) -> np.ndarray:
+    w = np.zeros((len(specs), t_s.size))
+    for i, s in enumerate(specs):
+        e = s.extensions
+        if e.osc_period_s > 0:
+            w[i] = e.osc_amplitude_pct * np.sin(2 * np.pi * t_s / e.osc_period_s)
+    return w
+
+
+@dataclass(frozen=True)
+class LoopState:
+    """Explicit state of every loop of a batch at a sample instant (arrays over loops)."""
+
+    x: np.ndarray
+    """Plant state ``(n, 2)``: process output y and sensor reading, percent."""
+    error_sum: np.ndarray
+    """Sum of control errors so far (the PI's integral)."""
+    mv: np.ndarray
+    """Stem position, percent of span (always stuck at a sample instant)."""
+    drive: np.ndarray
+    """The actuator's drive after deadband and lag, percent of OP."""
+    played: np.ndarray
+    """Output of the deadband's play."""
+    flow_hist: np.ndarray
+    """Mean valve flow of past intervals, a ring ``(n, max_delay + 2)`` indexed by ``k``."""
+    k: int = 0
+
+    @classmethod
+    def at_rest(cls, batch: Batch) -> LoopState:
+        n = batch.kc.size
+        zeros = np.zeros(n)
+        return cls(np.zeros((n, 2)), zeros, zeros, zeros, zeros, np.zeros((n, int(batch.delay.max()) + 2)))
+
+
+def _subset(fr: Friction, idx) -> Friction:
+    return Friction(fr.fs_lbf[idx], fr.stop_lbf[idx], fr.slip_s[idx], fr.lbf_per_pct[idx])
+
+
+def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S):
+    """One sample of every loop: returns ``(next_state, op, pv)`` for sample ``state.k``.
+
+    ``w`` and ``z`` are this sample's input and output disturbances, one per loop.
+    """
+    x = state.x
+    pv = np.einsum("ij,ij->i", batch.c, x) + z
+    error = batch.sp - pv
+    error_sum = state.error_sum + error
+    op = batch.kc * (error + ts_s / batch.ti_s * error_sum)
+
+    played = backlash(op, state.played, batch.deadband_pct)
+    target = np.where(batch.deadband_pct > 0, played, op)
+    lagged = batch.actuator_tau_s > 0
+    if lagged.any():
+        idx = np.flatnonzero(lagged)
+        slip_lag, drive_lag = lagged_valve_step(state.drive[idx], target[idx], batch.actuator_tau_s[idx], ts_s,
+                                                state.mv[idx], _subset(batch.friction, idx))
+    slip = valve_step(target, state.mv, batch.friction)
+    mv_next, deficit, drive = slip.mv_pct, slip.deficit_pct_s, target
+    if lagged.any():
+        mv_next, deficit, drive = mv_next.copy(), deficit.copy(), drive.copy()
+        mv_next[idx], deficit[idx], drive[idx] = slip_lag.mv_pct, slip_lag.deficit_pct_s, drive_lag
+    flow = mv_next - deficit / ts_s  # mean flow over the interval
+
+    hist = state.flow_hist
+    ring = hist.shape[1]
+    if ring > 2 or np.any(batch.gamma_prev):
+        hist = hist.copy()
+        hist[:, state.k % ring] = flow
+        rows = np.arange(flow.size)
+        flow_now = hist[rows, (state.k - batch.delay) % ring]
+        flow_prev = hist[rows, (state.k - batch.delay - 1) % ring]
+    else:
+        flow_now, flow_prev = flow, np.zeros_like(flow)
+    x_next = (np.einsum("nij,nj->ni", batch.phi, x) + batch.gamma_now * flow_now[:, None]
+              + batch.gamma_prev * flow_prev[:, None] + batch.gamma_w * w[:, None])
+    return LoopState(x_next, error_sum, mv_next, drive, played, hist, state.k + 1), op, pv
+
+
+def run_batch(batch: Batch, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S,
+              state: LoopState | None = None) -> tuple[np.ndarray, ...]:
+    """Run ``advance`` over all samples; ``w``, ``z``: ``(n_loops, n_samples)``.
+
+    Returns ``(op, pv, mv)``, each ``(n_loops, n_samples)``, MV being the stem at each sample.
+    """
+    n, n_samples = w.shape
+    op_rec, pv_rec, mv_rec = (np.empty((n, n_samples)) for _ in range(3))
+    state = LoopState.at_rest(batch) if state is None else state
+    for k in range(n_samples):
+        mv_rec[:, k] = state.mv
+        state, op_rec[:, k], pv_rec[:, k] = advance(batch, state, w[:, k], z[:, k], ts_s)
+    return op_rec, pv_rec, mv_rec
+
+
+def _quantise(x: np.ndarray, quantum: np.ndarray) -> np.ndarray:
+    q = quantum[:, None]
+    return np.where(q > 0, np.round(x / np.where(q > 0, q, 1.0)) * q, x)
+
+
+def simulate(specs: Sequence[LoopSpec], duration_s: float = DURATION_S, ts_s: float = TS_S,
+             warmup_s: float = WARMUP_S) -> SimResult:
+    """Simulate every loop of ``specs`` for ``duration_s`` from rest; the full record is returned.
+
+    Disturbances are scaled relative to the same loop without disturbance over the
+    samples after ``warmup_s`` (spec), so a batch with disturbances runs twice.
+    """
+    specs = tuple(specs)
+    if not specs:
+        raise ValueError("simulate needs at least one LoopSpec")
+    n_samples = int(round(duration_s / ts_s))
+    if n_samples < 2:
+        raise ValueError(f"duration_s={duration_s} gives fewer than 2 samples")
+    t_s = np.arange(n_samples) * ts_s
+    batch = build_batch(specs, ts_s)
+    w = _external_oscillation(specs, t_s)
+    z = np.zeros_like(w)
+    op, pv, mv = run_batch(batch, w, z, ts_s)
+    noisy = [i for i, s in enumerate(specs) if s.disturbance is not None and s.disturbance.coefficient > 0]
+    if noisy:
+        keep = t_s >= warmup_s if np.any(t_s >= warmup_s) else np.ones_like(t_s, bool)
+        for i in noisy:
+            d = specs[i].disturbance
+            shape = unit_shape(d.shape, n_samples, ts_s, np.random.default_rng(specs[i].seed), d.omega_rad_s)
+            if d.where == "input":
+                w[i] += d.coefficient * rms(mv[i, keep]) * shape
+            else:
+                z[i] += d.coefficient * rms(pv[i, keep]) * shape
+        op, pv, mv = run_batch(batch, w, z, ts_s)
+    quantum = np.array([s.extensions.quantum_pct for s in specs])
+    sp = np.broadcast_to(batch.sp[:, None], op.shape).copy()
+    return SimResult(specs, t_s, _quantise(op, quantum), _quantise(pv, quantum), sp, mv)

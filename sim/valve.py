@@ -1,0 +1,224 @@
+"""Control valves with stiction: the physical model (thesis 2.3) and He's model.
+
+The physical model is Kayihan & Doyle's pneumatic valve with Karnopp/Stribeck
+friction, as fixed in ``spec/thesis-loop.md``.  Its integration here rests on
+three facts about that valve (checked against a tight-tolerance ODE solution in
+``tests/sim/test_valve_reference.py``):
+
+1. Between samples the drive (OP) is constant, so a stuck stem feels a constant
+   force and stays stuck: only a sample can start a slip.
+2. The stem's linear part (m, Fv, k) is overdamped (time constants 3 ms and
+   9 ms).  Once the stem moves faster than a few Stribeck velocities the
+   friction is plain Coulomb, the motion is the closed-form step response of a
+   second-order system towards the point where ``F = Fc``, and velocity never
+   reverses: a slip ends when the Stribeck term catches the decaying stem,
+   a small residual ``r(Fs - Fc)`` short of that point, 45-80 ms after it began.
+3. That residual depends only on ``Fs - Fc`` (the stem reaches the Stribeck
+   region on the slow mode's manifold), so it is tabulated once by integrating
+   the tail with velocity as the independent variable.
+
+So a slip is one closed-form jump per sample, with no time-stepping at all,
+vectorised over loops.  He's two-parameter model (He et al. 2007) is the same
+jump without the residual and without the slip's duration.
+
+Units: OP, MV in percent of span; forces in lbf; stem position in inches.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+FRICTION_FULL_SCALE_LBF = 500.0
+"""The thesis expresses fs and fd as percent of 500 lbf."""
+
+
+@dataclass(frozen=True)
+class ValveConstants:
+    """Physical valve of thesis section 2.3 (Kayihan & Doyle), spec Table 'Physical valve model'."""
+
+    mass_lbf_s2_per_in: float = 3.0 / 386.09
+    diaphragm_area_in2: float = 100.0
+    spring_lbf_per_in: float = 300.0
+    viscous_lbf_s_per_in: float = 3.5
+    stribeck_in_per_s: float = 0.01
+    zero_band_in_per_s: float = 1e-6
+    psi_per_pct_op: float = 12.0 / 100.0
+    in_per_pct_mv: float = 4.0 / 100.0
+
+    @property
+    def lbf_per_pct(self) -> float:
+        """Net force per percent of OP - MV: ``Sa * 0.12 psi = k * 0.04 in = 12 lbf``."""
+        return self.diaphragm_area_in2 * self.psi_per_pct_op
+
+    @property
+    def slow_root_per_s(self) -> float:
+        """Slower (less negative) root of ``m s^2 + Fv s + k``."""
+        m, c, k = self.mass_lbf_s2_per_in, self.viscous_lbf_s_per_in, self.spring_lbf_per_in
+        return (-c + np.sqrt(c * c - 4 * m * k)) / (2 * m)
+
+
+VALVE = ValveConstants()
+
+
+def pct_to_lbf(friction_pct):
+    """Friction in percent of 500 lbf (the thesis convention) to lbf."""
+    return np.asarray(friction_pct, dtype=float) * FRICTION_FULL_SCALE_LBF / 100.0
+
+
+def lbf_to_pct(friction_lbf):
+    return np.asarray(friction_lbf, dtype=float) * 100.0 / FRICTION_FULL_SCALE_LBF
+
+
+def band_and_jump_pct(fs_pct, fd_pct, valve: ValveConstants = VALVE):
+    """Choudhury's S (stiction band) and J (slip jump), percent of span, for this valve."""
+    fs_lbf, fd_lbf = pct_to_lbf(fs_pct), pct_to_lbf(fd_pct)
+    return fs_lbf / valve.lbf_per_pct, (fs_lbf - fd_lbf) / valve.lbf_per_pct
+
+
+_TABLE_GAP_LBF = np.concatenate([[0.0], np.geomspace(1e-3, 2e3, 160)])
+
+
+@lru_cache(maxsize=4)
+def _stop_residual_table(valve: ValveConstants) -> tuple[np.ndarray, np.ndarray]:
+    """Distance [in] short of the Coulomb equilibrium at which a slip sticks, per ``Fs - Fc``.
+
+    The tail of a slip: with ``r`` the distance left to the point where F = Fc,
+    ``r' = -v`` and ``m v' = k r - Fv v - (Fs - Fc) exp(-(v/vs)^2)``.  Starting on
+    the slow mode's manifold at 20 Stribeck velocities (where the Stribeck term is
+    e^-400) and integrating ``dr/dv`` with RK4 down to v = 0 is smooth and cheap.
+    """
+    m, k = valve.mass_lbf_s2_per_in, valve.spring_lbf_per_in
+    c, vs = valve.viscous_lbf_s_per_in, valve.stribeck_in_per_s
+    gap = _TABLE_GAP_LBF
+    v0 = 20.0 * vs
+    r = np.full_like(gap, v0 / -valve.slow_root_per_s)
+    n_steps = 800
+    h = -v0 / n_steps
+
+    def dr_dv(v, r):
+        return -v * m / (k * r - c * v - gap * np.exp(-((v / vs) ** 2)))
+
+    v = v0
+    for _ in range(n_steps):
+        k1 = dr_dv(v, r)
+        k2 = dr_dv(v + h / 2, r + h / 2 * k1)
+        k3 = dr_dv(v + h / 2, r + h / 2 * k2)
+        k4 = dr_dv(v + h, r + h * k3)
+        r = r + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        v += h
+    r[0] = 0.0  # no Stribeck drop: the stem creeps all the way to F = Fc
+    return gap, r
+
+
+def stop_residual_in(gap_lbf, valve: ValveConstants = VALVE) -> np.ndarray:
+    """Stop residual [in] for ``Fs - Fc = gap_lbf``; never more than the gap allows (k r < Fs - Fc)."""
+    gap_tab, r_tab = _stop_residual_table(valve)
+    gap = np.clip(np.asarray(gap_lbf, dtype=float), 0.0, gap_tab[-1])
+    r = np.interp(gap, gap_tab, r_tab)
+    return np.minimum(r, gap / valve.spring_lbf_per_in)
+
+
+@dataclass(frozen=True)
+class Slip:
+    """Outcome of one sample interval of a stem that starts the interval stuck."""
+
+    mv_pct: np.ndarray
+    """Stem position at the end of the interval."""
+    deficit_pct_s: np.ndarray
+    """``MV_end * Ts - integral of MV`` over the interval: flow the slips' timing withholds."""
+    slipped: np.ndarray
+
+
+@dataclass(frozen=True)
+class Friction:
+    """A valve's friction as the sampled loop sees it, vectorised over loops.
+
+    ``stop_lbf`` is the force left on the stem when a slip sticks; ``slip_s``
+    is how much flow-time a slip of 1 % withholds (``Fv/k``, the sum of the
+    overdamped stem's two time constants).
+    """
+
+    fs_lbf: np.ndarray
+    stop_lbf: np.ndarray
+    slip_s: float
+    lbf_per_pct: float
+
+    @classmethod
+    def physical(cls, fs_lbf, fd_lbf, valve: ValveConstants = VALVE) -> Friction:
+        fs, fd = np.asarray(fs_lbf, float), np.asarray(fd_lbf, float)
+        residual_lbf = valve.spring_lbf_per_in * stop_residual_in(fs - fd, valve)
+        return cls(fs, fd + residual_lbf, valve.viscous_lbf_s_per_in / valve.spring_lbf_per_in,
+                   valve.lbf_per_pct)
+
+    @classmethod
+    def he(cls, fs_op_pct, fd_op_pct) -> Friction:
+        """He et al. (2007) two-parameter model with ``fs``, ``fd`` in percent of OP.
+
+        For this valve the physical model's ``fs``, ``fd`` map to ``fs/12``, ``fd/12``
+        (spec; thesis Figure 2.5).  A slip is an instant jump that ends exactly at fd.
+        """
+        return cls(np.asarray(fs_op_pct, float), np.asarray(fd_op_pct, float), 0.0, 1.0)
+
+
+def valve_step(drive_pct, mv_pct, friction: Friction) -> Slip:
+    """One interval of constant drive (vectorised over loops).
+
+    A stem breaks away when ``|F| > Fs`` with ``F = 12 lbf/% * (drive - MV)``, slips
+    to where the force left is ``stop_lbf`` and sticks there.
+    """
+    force_lbf = friction.lbf_per_pct * (drive_pct - mv_pct)
+    slipped = np.abs(force_lbf) > friction.fs_lbf
+    end_force_lbf = np.sign(force_lbf) * friction.stop_lbf
+    jump_pct = np.where(slipped, (force_lbf - end_force_lbf) / friction.lbf_per_pct, 0.0)
+    return Slip(mv_pct=mv_pct + jump_pct, deficit_pct_s=jump_pct * friction.slip_s, slipped=slipped)
+
+
+def lagged_valve_step(drive_pct, op_pct, tau_s, ts_s, mv_pct, friction: Friction):
+    """One interval in which the drive relaxes towards OP: ``P(t) = OP + (P0 - OP) e^(-t/tau)``.
+
+    The drive moves monotonically, so the first breakaway time is closed-form; after
+    it, each further travel of ``(Fs - stop)/12`` breaks the stem away again.  The
+    stair that follows is integrated as its mean line (exact at the stair's ends).
+    Returns ``(Slip, drive_end_pct)``.
+    """
+    tau_s = np.asarray(tau_s, float)
+    p0, op = np.asarray(drive_pct, float), np.asarray(op_pct, float)
+    decay = np.exp(-ts_s / tau_s)
+    p_end = op + (p0 - op) * decay
+    d = np.sign(op - p0)
+    band_pct = friction.fs_lbf / friction.lbf_per_pct
+    stop_pct = friction.stop_lbf / friction.lbf_per_pct
+    step_pct = np.maximum(band_pct - stop_pct, 1e-9)
+    p_break = mv_pct + d * band_pct
+    already = np.abs(p0 - mv_pct) > band_pct
+    slipped = already | (d * (p_end - p_break) > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_break = np.where(already, 0.0, tau_s * np.log((op - p0) / (op - p_break)))
+    t_break = np.where(slipped, np.clip(np.nan_to_num(t_break), 0.0, ts_s), ts_s)
+    p_at_break = np.where(already, p0, p_break)
+    d = np.where(already, np.sign(p0 - mv_pct), d)
+    mv_first = p_at_break - d * stop_pct
+    n_more = np.where(slipped, np.floor(np.maximum(d * (p_end - p_at_break), 0.0) / step_pct), 0.0)
+    mv_end = np.where(slipped, mv_first + d * n_more * step_pct, mv_pct)
+
+    # integral of MV over the interval
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_last = np.where(
+            n_more > 0,
+            tau_s * np.log((op - p0) / (op - (p_at_break + d * n_more * step_pct))),
+            t_break,
+        )
+    t_last = np.clip(np.nan_to_num(t_last, nan=ts_s), t_break, ts_s)
+
+    def drive_integral(t1, t2):
+        return op * (t2 - t1) + (p0 - op) * tau_s * (np.exp(-t1 / tau_s) - np.exp(-t2 / tau_s))
+
+    stair = drive_integral(t_break, t_last) - (d * stop_pct + d * step_pct / 2) * (t_last - t_break)
+    stair = np.where(n_more > 0, stair, mv_first * (t_last - t_break))
+    integral = mv_pct * t_break + stair + mv_end * (ts_s - t_last)
+    travel = np.abs(mv_end - mv_pct)
+    deficit = np.where(slipped, mv_end * ts_s - integral, 0.0) + travel * friction.slip_s
+    return Slip(mv_pct=mv_end, deficit_pct_s=deficit, slipped=slipped), p_end

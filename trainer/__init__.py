@@ -1,0 +1,1 @@
+"""Offline model training (torch); never imported by the agent."""
