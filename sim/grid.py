@@ -37,7 +37,7 @@ NOISY_CASES: dict[str, tuple[float, float, Disturbance]] = {
 }
 
 
-def test_case_specs(seed: int = 0) -> dict[str, LoopSpec]:
+def case_specs(seed: int = 0) -> dict[str, LoopSpec]:
     """C1-C10 and N1-N10 of thesis Figures 4.2 and 4.5, fs/fd in percent of 500 lbf."""
     cases = {name: LoopSpec(fs, fd) for name, (fs, fd) in NOISE_FREE_CASES.items()}
     cases.update({name: LoopSpec(fs, fd, disturbance=d, seed=seed) for name, (fs, fd, d) in NOISY_CASES.items()})

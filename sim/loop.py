@@ -231,6 +231,25 @@ def _quantise(x: np.ndarray, quantum: np.ndarray) -> np.ndarray:
     return np.where(q > 0, np.round(x / np.where(q > 0, q, 1.0)) * q, x)
 
 
+def disturbance_signals(specs: Sequence[LoopSpec], t_s: np.ndarray, clean: SimResult,
+                        warmup_s: float = WARMUP_S) -> tuple[np.ndarray, np.ndarray]:
+    """Input and output disturbances ``(w, z)``, scaled on the clean loops' RMS after ``warmup_s``."""
+    n_samples = t_s.size
+    ts_s = float(t_s[1] - t_s[0])
+    w, z = np.zeros((len(specs), n_samples)), np.zeros((len(specs), n_samples))
+    keep = t_s >= warmup_s if np.any(t_s >= warmup_s) else np.ones(n_samples, bool)
+    for i, s in enumerate(specs):
+        d = s.disturbance
+        if d is None or d.coefficient == 0:
+            continue
+        shape = unit_shape(d.shape, n_samples, ts_s, np.random.default_rng(s.seed), d.omega_rad_s)
+        if d.where == "input":
+            w[i] = d.coefficient * rms(clean.mv[i, keep]) * shape
+        else:
+            z[i] = d.coefficient * rms(clean.pv[i, keep]) * shape
+    return w, z
+
+
 def simulate(specs: Sequence[LoopSpec], duration_s: float = DURATION_S, ts_s: float = TS_S,
              warmup_s: float = WARMUP_S) -> SimResult:
     """Simulate every loop of ``specs`` for ``duration_s`` from rest; the full record is returned.
@@ -246,20 +265,12 @@ def simulate(specs: Sequence[LoopSpec], duration_s: float = DURATION_S, ts_s: fl
         raise ValueError(f"duration_s={duration_s} gives fewer than 2 samples")
     t_s = np.arange(n_samples) * ts_s
     batch = build_batch(specs, ts_s)
-    w = _external_oscillation(specs, t_s)
-    z = np.zeros_like(w)
-    op, pv, mv = run_batch(batch, w, z, ts_s)
-    noisy = [i for i, s in enumerate(specs) if s.disturbance is not None and s.disturbance.coefficient > 0]
-    if noisy:
-        keep = t_s >= warmup_s if np.any(t_s >= warmup_s) else np.ones_like(t_s, bool)
-        for i in noisy:
-            d = specs[i].disturbance
-            shape = unit_shape(d.shape, n_samples, ts_s, np.random.default_rng(specs[i].seed), d.omega_rad_s)
-            if d.where == "input":
-                w[i] += d.coefficient * rms(mv[i, keep]) * shape
-            else:
-                z[i] += d.coefficient * rms(pv[i, keep]) * shape
-        op, pv, mv = run_batch(batch, w, z, ts_s)
+    w0 = _external_oscillation(specs, t_s)
+    z0 = np.zeros_like(w0)
+    op, pv, mv = run_batch(batch, w0, z0, ts_s)
+    if any(s.disturbance is not None for s in specs):
+        w, z = disturbance_signals(specs, t_s, SimResult(specs, t_s, op, pv, pv, mv), warmup_s)
+        op, pv, mv = run_batch(batch, w0 + w, z, ts_s)
     quantum = np.array([s.extensions.quantum_pct for s in specs])
     sp = np.broadcast_to(batch.sp[:, None], op.shape).copy()
     return SimResult(specs, t_s, _quantise(op, quantum), _quantise(pv, quantum), sp, mv)
