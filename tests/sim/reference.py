@@ -1,11 +1,12 @@
 """A slow, obviously correct reference for one sample interval of the canonical loop.
 
-The valve ODE of spec/thesis-loop.md, integrated with ``solve_ivp`` (Radau, rtol 1e-8,
-atol 1e-11 in: tightening to 1e-10/1e-13 moves the end of a slip by < 1e-12 in) together with the process, with a terminal event wherever a moving
-stem's velocity crosses zero.  Stick/slip switching follows the spec literally:
-a stem with ``|v| <= delta`` and ``|F| <= Fs`` is stuck; a crossing with
-``|F| <= Fs`` sticks; otherwise the stem moves (breaks away) in the force's
-direction.  Nothing here is shared with ``sim.valve``'s closed form.
+The valve ODE of spec/thesis-loop.md, integrated with ``solve_ivp`` together with
+the process (Radau, rtol 1e-8, atol 1e-11 in: tightening to 1e-10/1e-13 moves the
+end of a slip by < 1e-12 in), with a terminal event wherever a moving stem's
+velocity crosses zero.  Stick/slip switching follows the spec literally: a stem
+with ``|v| <= delta`` and ``|F| <= Fs`` is stuck; a crossing with ``|F| <= Fs``
+sticks; otherwise the stem moves (breaks away) in the force's direction.
+Nothing here is shared with ``sim.valve``'s closed form.
 """
 
 from __future__ import annotations
