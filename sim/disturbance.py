@@ -49,8 +49,9 @@ def kasdin_ar_coefficients(alpha: float, order: int = 63) -> np.ndarray:
     return a
 
 
-def unit_shape(shape: Shape, n_samples: int, ts_s: float, rng: np.random.Generator,
-               omega_rad_s: float | None = None) -> np.ndarray:
+def unit_shape(
+    shape: Shape, n_samples: int, ts_s: float, rng: np.random.Generator, omega_rad_s: float | None = None
+) -> np.ndarray:
     """The unit disturbance shape of thesis 4.2 over a record of ``n_samples``."""
     if shape == "sine":
         return np.sin(omega_rad_s * ts_s * np.arange(n_samples))

@@ -13,14 +13,22 @@ def training_grid_lbf() -> list[tuple[float, float]]:
 
 
 def training_specs(loop: str = "level", valve: str = "physical") -> list[LoopSpec]:
-    return [LoopSpec(float(lbf_to_pct(fs)), float(lbf_to_pct(fd)), loop=loop, valve=valve)
-            for fs, fd in training_grid_lbf()]
+    return [
+        LoopSpec(float(lbf_to_pct(fs)), float(lbf_to_pct(fd)), loop=loop, valve=valve) for fs, fd in training_grid_lbf()
+    ]
 
 
 NOISE_FREE_CASES: dict[str, tuple[float, float]] = {
-    "C1": (97.40, 64.40), "C2": (47.20, 4.60), "C3": (73.80, 69.00), "C4": (70.40, 21.00),
-    "C5": (62.60, 16.80), "C6": (10.60, 4.80), "C7": (16.00, 11.20), "C8": (9.40, 6.00),
-    "C9": (33.20, 19.40), "C10": (64.80, 7.20),
+    "C1": (97.40, 64.40),
+    "C2": (47.20, 4.60),
+    "C3": (73.80, 69.00),
+    "C4": (70.40, 21.00),
+    "C5": (62.60, 16.80),
+    "C6": (10.60, 4.80),
+    "C7": (16.00, 11.20),
+    "C8": (9.40, 6.00),
+    "C9": (33.20, 19.40),
+    "C10": (64.80, 7.20),
 }
 
 NOISY_CASES: dict[str, tuple[float, float, Disturbance]] = {

@@ -103,8 +103,12 @@ def _friction(specs: Sequence[LoopSpec]) -> Friction:
     def pick(a, b):
         return np.where(is_he, np.broadcast_to(b, is_he.shape), np.broadcast_to(a, is_he.shape))
 
-    return Friction(pick(physical.fs_lbf, he.fs_lbf), pick(physical.stop_lbf, he.stop_lbf),
-                    pick(physical.slip_s, he.slip_s), pick(physical.lbf_per_pct, he.lbf_per_pct))
+    return Friction(
+        pick(physical.fs_lbf, he.fs_lbf),
+        pick(physical.stop_lbf, he.stop_lbf),
+        pick(physical.slip_s, he.slip_s),
+        pick(physical.lbf_per_pct, he.lbf_per_pct),
+    )
 
 
 def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
@@ -115,8 +119,18 @@ def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
         if key not in plants:
             A, B, C = continuous_plant(LOOPS[s.loop], e.gain_ratio, e.time_constant_s, e.sensor_tau_s)
             plants[key] = discretise(A, B, C, ts_s, e.dead_time_s)
-    per_loop = [plants[(s.loop, s.extensions.gain_ratio, s.extensions.time_constant_s,
-                        s.extensions.sensor_tau_s, s.extensions.dead_time_s)] for s in specs]
+    per_loop = [
+        plants[
+            (
+                s.loop,
+                s.extensions.gain_ratio,
+                s.extensions.time_constant_s,
+                s.extensions.sensor_tau_s,
+                s.extensions.dead_time_s,
+            )
+        ]
+        for s in specs
+    ]
 
     def stack(name):
         return np.stack([getattr(p, name) for p in per_loop])
@@ -126,8 +140,12 @@ def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
         ti_s=np.array([LOOPS[s.loop].integral_time_s for s in specs]),
         sp=np.array([s.sp_pct for s in specs]),
         friction=_friction(specs),
-        phi=stack("phi"), gamma_now=stack("gamma_now"), gamma_prev=stack("gamma_prev"),
-        gamma_w=stack("gamma_w"), c=stack("c"), delay=stack("delay_samples").astype(int),
+        phi=stack("phi"),
+        gamma_now=stack("gamma_now"),
+        gamma_prev=stack("gamma_prev"),
+        gamma_w=stack("gamma_w"),
+        c=stack("c"),
+        delay=stack("delay_samples").astype(int),
         deadband_pct=np.array([s.extensions.deadband_pct for s in specs]),
         actuator_tau_s=np.array([s.extensions.actuator_tau_s for s in specs]),
     )
@@ -187,8 +205,9 @@ def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: 
     lagged = batch.actuator_tau_s > 0
     if lagged.any():
         idx = np.flatnonzero(lagged)
-        slip_lag, drive_lag = lagged_valve_step(state.drive[idx], target[idx], batch.actuator_tau_s[idx], ts_s,
-                                                state.mv[idx], _subset(batch.friction, idx))
+        slip_lag, drive_lag = lagged_valve_step(
+            state.drive[idx], target[idx], batch.actuator_tau_s[idx], ts_s, state.mv[idx], _subset(batch.friction, idx)
+        )
     slip = valve_step(target, state.mv, batch.friction)
     mv_next, deficit, drive = slip.mv_pct, slip.deficit_pct_s, target
     if lagged.any():
@@ -206,13 +225,18 @@ def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: 
         flow_prev = hist[rows, (state.k - batch.delay - 1) % ring]
     else:
         flow_now, flow_prev = flow, np.zeros_like(flow)
-    x_next = (np.einsum("nij,nj->ni", batch.phi, x) + batch.gamma_now * flow_now[:, None]
-              + batch.gamma_prev * flow_prev[:, None] + batch.gamma_w * w[:, None])
+    x_next = (
+        np.einsum("nij,nj->ni", batch.phi, x)
+        + batch.gamma_now * flow_now[:, None]
+        + batch.gamma_prev * flow_prev[:, None]
+        + batch.gamma_w * w[:, None]
+    )
     return LoopState(x_next, error_sum, mv_next, drive, played, hist, state.k + 1), op, pv
 
 
-def run_batch(batch: Batch, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S,
-              state: LoopState | None = None) -> tuple[np.ndarray, ...]:
+def run_batch(
+    batch: Batch, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S, state: LoopState | None = None
+) -> tuple[np.ndarray, ...]:
     """Run ``advance`` over all samples; ``w``, ``z``: ``(n_loops, n_samples)``.
 
     Returns ``(op, pv, mv)``, each ``(n_loops, n_samples)``, MV being the stem at each sample.
@@ -231,8 +255,9 @@ def _quantise(x: np.ndarray, quantum: np.ndarray) -> np.ndarray:
     return np.where(q > 0, np.round(x / np.where(q > 0, q, 1.0)) * q, x)
 
 
-def disturbance_signals(specs: Sequence[LoopSpec], t_s: np.ndarray, clean: SimResult,
-                        warmup_s: float = WARMUP_S) -> tuple[np.ndarray, np.ndarray]:
+def disturbance_signals(
+    specs: Sequence[LoopSpec], t_s: np.ndarray, clean: SimResult, warmup_s: float = WARMUP_S
+) -> tuple[np.ndarray, np.ndarray]:
     """Input and output disturbances ``(w, z)``, scaled on the clean loops' RMS after ``warmup_s``."""
     n_samples = t_s.size
     ts_s = float(t_s[1] - t_s[0])
@@ -250,8 +275,9 @@ def disturbance_signals(specs: Sequence[LoopSpec], t_s: np.ndarray, clean: SimRe
     return w, z
 
 
-def simulate(specs: Sequence[LoopSpec], duration_s: float = DURATION_S, ts_s: float = TS_S,
-             warmup_s: float = WARMUP_S) -> SimResult:
+def simulate(
+    specs: Sequence[LoopSpec], duration_s: float = DURATION_S, ts_s: float = TS_S, warmup_s: float = WARMUP_S
+) -> SimResult:
     """Simulate every loop of ``specs`` for ``duration_s`` from rest; the full record is returned.
 
     Disturbances are scaled relative to the same loop without disturbance over the

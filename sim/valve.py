@@ -150,8 +150,7 @@ class Friction:
     def physical(cls, fs_lbf, fd_lbf, valve: ValveConstants = VALVE) -> Friction:
         fs, fd = np.asarray(fs_lbf, float), np.asarray(fd_lbf, float)
         residual_lbf = valve.spring_lbf_per_in * stop_residual_in(fs - fd, valve)
-        return cls(fs, fd + residual_lbf, valve.viscous_lbf_s_per_in / valve.spring_lbf_per_in,
-                   valve.lbf_per_pct)
+        return cls(fs, fd + residual_lbf, valve.viscous_lbf_s_per_in / valve.spring_lbf_per_in, valve.lbf_per_pct)
 
     @classmethod
     def he(cls, fs_op_pct, fd_op_pct) -> Friction:

@@ -23,8 +23,15 @@ def _plant_response(ext: Extensions, flow: np.ndarray, loop="level") -> np.ndarr
 
 
 @pytest.mark.parametrize("loop", ["level", "concentration"])
-@pytest.mark.parametrize("ext", [Extensions(), Extensions(sensor_tau_s=7.0), Extensions(time_constant_s=40.0),
-                                 Extensions(gain_ratio=1.7, sensor_tau_s=3.0)])
+@pytest.mark.parametrize(
+    "ext",
+    [
+        Extensions(),
+        Extensions(sensor_tau_s=7.0),
+        Extensions(time_constant_s=40.0),
+        Extensions(gain_ratio=1.7, sensor_tau_s=3.0),
+    ],
+)
 def test_discretisation_matches_python_control(loop, ext):
     import control
 
@@ -66,8 +73,9 @@ def test_sensor_lag_filters_pv():
 
 def test_process_gain_scales_the_process():
     flow = np.random.default_rng(1).normal(size=50)
-    np.testing.assert_allclose(_plant_response(Extensions(gain_ratio=2.5), flow),
-                               2.5 * _plant_response(Extensions(), flow), atol=1e-12)
+    np.testing.assert_allclose(
+        _plant_response(Extensions(gain_ratio=2.5), flow), 2.5 * _plant_response(Extensions(), flow), atol=1e-12
+    )
 
 
 def test_process_type_makes_the_level_process_self_regulating():

@@ -34,7 +34,7 @@ def test_every_grid_point_sustains_a_limit_cycle(grid):
     failures = []
     for i, spec in enumerate(grid.specs):
         for part in (slice(0, half), slice(half, None)):
-            up, down = _slip_counts(grid.op[i:i + 1, part], grid.mv[i:i + 1, part])
+            up, down = _slip_counts(grid.op[i : i + 1, part], grid.mv[i : i + 1, part])
             if up[0] < 2 or down[0] < 2:
                 failures.append((spec.fs_pct, spec.fd_pct, "fewer than 2 slips each way in 500 s"))
         a1 = np.ptp(grid.pv[i, :half])

@@ -2,8 +2,8 @@
 
 import numpy as np
 
+from sim.reference import IN_PER_PCT, RefState, reference_interval
 from sim.valve import VALVE, Friction, band_and_jump_pct, lagged_valve_step, pct_to_lbf, stop_residual_in, valve_step
-from tests.sim.reference import IN_PER_PCT, RefState, reference_interval
 
 
 def test_stuck_stem_does_not_move_while_force_within_static_friction():

@@ -12,8 +12,8 @@ import pytest
 
 from sim.grid import case_specs
 from sim.loop import LoopState, advance, build_batch, disturbance_signals, run_batch, simulate
+from sim.reference import IN_PER_PCT, RefState, reference_interval
 from sim.valve import pct_to_lbf
-from tests.sim.reference import IN_PER_PCT, RefState, reference_interval
 
 MV_TOLERANCE_PCT = 0.05
 INTERVALS = 220  # > one period of the slowest case (C3, ~160 s): every case slips several times
@@ -34,8 +34,15 @@ def _interval_errors(name: str, spec) -> tuple[float, float, int]:
     worst_mv = worst_pv = 0.0
     slips = 0
     for k in range(1000, 1000 + INTERVALS):
-        fast_from_ref = LoopState(np.array([[ref.y_pct, 0.0]]), error_sum, np.array([ref.x_in / IN_PER_PCT]),
-                                  state.drive, state.played, state.flow_hist, k)
+        fast_from_ref = LoopState(
+            np.array([[ref.y_pct, 0.0]]),
+            error_sum,
+            np.array([ref.x_in / IN_PER_PCT]),
+            state.drive,
+            state.played,
+            state.flow_hist,
+            k,
+        )
         fast_next, op, _ = advance(batch, fast_from_ref, w[:, k], z[:, k])
         ref_next = reference_interval(ref, float(op[0]), float(w[0, k]), fs_lbf, fd_lbf)
         assert abs(ref_next.v_in_s) <= 1e-6, f"{name}: reference stem still moving at a sample"

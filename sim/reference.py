@@ -39,8 +39,9 @@ def _process_rate(loop: str, y: float, flow_pct: float) -> float:
     return (-y + 3.0 * flow_pct) / 10.0
 
 
-def reference_interval(state: RefState, op_pct: float, w_pct: float, fs_lbf: float, fd_lbf: float,
-                       loop: str = "level", ts_s: float = 1.0) -> RefState:
+def reference_interval(
+    state: RefState, op_pct: float, w_pct: float, fs_lbf: float, fd_lbf: float, loop: str = "level", ts_s: float = 1.0
+) -> RefState:
     """Advance the valve and process over one sample interval with OP held."""
     u_psi = PSI_PER_PCT * op_pct
 
@@ -75,11 +76,39 @@ def reference_interval(state: RefState, op_pct: float, w_pct: float, fs_lbf: flo
             return direction * s[1]
 
         crossing.terminal, crossing.direction = True, -1
-        sol = solve_ivp(moving_rhs, (t, ts_s), s, method="Radau", rtol=1e-8, atol=1e-11,
-                        events=crossing)
+        sol = solve_ivp(moving_rhs, (t, ts_s), s, method="Radau", rtol=1e-8, atol=1e-11, events=crossing)
         s, t = list(sol.y[:, -1]), float(sol.t[-1])
         if sol.status == 1:  # velocity crossed zero: stick there (or break away again next pass)
             s[1] = 0.0
     else:
         raise RuntimeError("reference: too many stick/slip switches in one interval")
     return RefState(s[0], s[1], s[2])
+
+
+def reference_simulate(
+    fs_pct: float,
+    fd_pct: float,
+    duration_s: float = 2000.0,
+    loop: str = "level",
+    w: np.ndarray | None = None,
+    z: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """The whole sampled loop, scalar, every interval through ``reference_interval``.
+
+    Positional PI with ``Ts = 1 s`` and ``SP = 1 %`` (spec).  Slow: for benchmarks and tests only.
+    """
+    kc, ti = (3.0, 30.0) if loop == "level" else (0.2, 2.0)
+    n = int(duration_s)
+    w = np.zeros(n) if w is None else w
+    z = np.zeros(n) if z is None else z
+    fs_lbf, fd_lbf = 5.0 * fs_pct, 5.0 * fd_pct
+    state, error_sum = RefState(0.0, 0.0, 0.0), 0.0
+    out = {name: np.empty(n) for name in ("op", "pv", "mv")}
+    for k in range(n):
+        pv = state.y_pct + z[k]
+        error = 1.0 - pv
+        error_sum += error
+        op = kc * (error + error_sum / ti)
+        out["op"][k], out["pv"][k], out["mv"][k] = op, pv, state.x_in / IN_PER_PCT
+        state = reference_interval(state, op, float(w[k]), fs_lbf, fd_lbf, loop)
+    return out

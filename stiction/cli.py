@@ -1,0 +1,44 @@
+"""The ``stiction`` command: one console script, one module per subcommand."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from stiction.errors import StictionError
+
+COMMANDS = {
+    "simulate": "write simulated loops as historian-export CSVs, or the training grid",
+    "bench": "benchmarks: simulator speed against the reference",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="stiction", description="Quantify control-valve stiction (fs, fd).")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv for debug)")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, text in COMMANDS.items():
+        module = importlib.import_module(f"stiction.commands.{name}")
+        p = sub.add_parser(name, help=text, description=(module.__doc__ or text).strip())
+        module.add_arguments(p)
+        p.set_defaults(_module=module)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
+    logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    try:
+        return args._module.run(args)
+    except StictionError as e:
+        print(f"stiction {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
