@@ -1,0 +1,153 @@
+"""Inverse nonlinear PCA with a circular bottleneck (thesis 3.4, Scholz 2005), batched over windows.
+
+The inverse network maps one angle per sample through a circular unit
+``(cos t_n, sin t_n)``, a hidden ``tanh`` layer and a linear output to the
+sample's ``(OP, PV)``.  The angles are free parameters fitted together with the
+weights, so a fitted window gives a closed curve (the network over all angles)
+and every sample's own projection onto it (the network at the sample's angle).
+
+Fitted here with analytic gradients and Adam in numpy, all windows of a batch at
+once: no torch in the agent.  Each window is standardised on its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class InlpcaSettings:
+    hidden_units: int = 6
+    iterations: int = 100
+    fit_samples: int = 128
+    """The curve is fitted on this many evenly spaced samples; all samples are then projected."""
+    curve_points: int = 128
+    learning_rate: float = 0.03
+    angle_learning_rate: float = 0.1
+    weight_decay: float = 1e-3
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class InlpcaFit:
+    """Fitted curves of a batch; shapes in brackets, W windows, N samples."""
+
+    angles: np.ndarray  # [W, N] each sample's angle on its curve, unwrapped
+    travel: np.ndarray  # [W] +1 or -1: the direction in which the loop goes round its curve
+    denoised: np.ndarray  # [W, N, 2] each sample's projection onto the curve, (op, pv) units
+    residual_rms: np.ndarray  # [W, 2] rms of data - projection, (op, pv) units
+    explained: np.ndarray  # [W] 1 - residual variance / variance (standardised)
+    _params: tuple
+
+    def curve(self, angles: np.ndarray) -> np.ndarray:
+        """The fitted curves at ``angles`` [W, M] -> [W, M, 2] in (op, pv) units."""
+        w1, b1, w2, b2, mean, scale = self._params
+        return _forward(angles, w1, b1, w2, b2)[0] * scale[:, None, :] + mean[:, None, :]
+
+
+def _forward(theta, w1, b1, w2, b2):
+    c, s = np.cos(theta), np.sin(theta)  # [W, N]
+    a = c[..., None] * w1[:, None, :, 0] + s[..., None] * w1[:, None, :, 1] + b1[:, None, :]  # [W, N, H]
+    h = np.tanh(a)
+    out = np.einsum("wnh,wkh->wnk", h, w2) + b2[:, None, :]  # [W, N, 2]
+    return out, h, c, s
+
+
+def loss_and_grads(theta, w1, b1, w2, b2, x, weight_decay):
+    """Per-window loss ``mean_n |net(theta_n) - x_n|^2 / 2 + decay (|W1|^2 + |W2|^2) / 2`` and its gradients."""
+    n = x.shape[1]
+    out, h, c, s = _forward(theta, w1, b1, w2, b2)
+    e = (out - x) / n  # [W, N, 2]
+    loss = 0.5 * np.sum((out - x) ** 2, axis=(1, 2)) / n
+    loss = loss + 0.5 * weight_decay * (np.sum(w1**2, axis=(1, 2)) + np.sum(w2**2, axis=(1, 2)))
+    g_w2 = np.einsum("wnk,wnh->wkh", e, h) + weight_decay * w2
+    g_b2 = e.sum(axis=1)
+    da = np.einsum("wnk,wkh->wnh", e, w2) * (1 - h * h)  # [W, N, H]
+    g_w1 = np.stack([np.einsum("wnh,wn->wh", da, c), np.einsum("wnh,wn->wh", da, s)], axis=-1) + weight_decay * w1
+    g_b1 = da.sum(axis=1)
+    g_theta = -s * np.einsum("wnh,wh->wn", da, w1[..., 0]) + c * np.einsum("wnh,wh->wn", da, w1[..., 1])
+    return loss, (g_theta, g_w1, g_b1, g_w2, g_b2)
+
+
+class _Adam:
+    def __init__(self, shapes, lrs, b1=0.9, b2=0.999, eps=1e-8):
+        self.m = [np.zeros(s) for s in shapes]
+        self.v = [np.zeros(s) for s in shapes]
+        self.lrs, self.b1, self.b2, self.eps, self.t = lrs, b1, b2, eps, 0
+
+    def step(self, params, grads):
+        self.t += 1
+        out = []
+        for i, (p, g) in enumerate(zip(params, grads, strict=True)):
+            self.m[i] = self.b1 * self.m[i] + (1 - self.b1) * g
+            self.v[i] = self.b2 * self.v[i] + (1 - self.b2) * g * g
+            m_hat = self.m[i] / (1 - self.b1**self.t)
+            v_hat = self.v[i] / (1 - self.b2**self.t)
+            out.append(p - self.lrs[i] * m_hat / (np.sqrt(v_hat) + self.eps))
+        return out
+
+
+def _initial_angles(x: np.ndarray) -> np.ndarray:
+    """Angle of each standardised sample in its window's whitened principal plane."""
+    cov = np.einsum("wni,wnj->wij", x, x) / x.shape[1]
+    evals, evecs = np.linalg.eigh(cov)
+    z = np.einsum("wni,wij->wnj", x, evecs) / np.sqrt(np.maximum(evals, 1e-12))[:, None, :]
+    return np.arctan2(z[..., 0], z[..., 1])
+
+
+def fit(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = InlpcaSettings()) -> InlpcaFit:
+    """Fit one curve per row of ``op``, ``pv`` [W, N]; every sample is projected onto its curve."""
+    data = np.stack([np.atleast_2d(op), np.atleast_2d(pv)], axis=-1).astype(float)  # [W, N, 2]
+    n_win, n_all = data.shape[:2]
+    mean = data.mean(axis=1)
+    scale = data.std(axis=1)
+    scale = np.where(scale > 1e-12, scale, 1.0)
+    x_all = (data - mean[:, None, :]) / scale[:, None, :]
+    pick = np.unique(np.linspace(0, n_all - 1, min(settings.fit_samples, n_all)).round().astype(int))
+    x = x_all[:, pick]
+    n = x.shape[1]
+    rng = np.random.default_rng(settings.seed)
+    hidden = settings.hidden_units
+    theta = _initial_angles(x)
+    w1 = np.broadcast_to(rng.normal(0, 1.0, (hidden, 2)), (n_win, hidden, 2)).copy()
+    b1 = np.broadcast_to(rng.normal(0, 0.3, hidden), (n_win, hidden)).copy()
+    # output layer: least squares on the initial hidden activations
+    _, h, _, _ = _forward(theta, w1, b1, np.zeros((n_win, 2, hidden)), np.zeros((n_win, 2)))
+    h1 = np.concatenate([h, np.ones((n_win, n, 1))], axis=2)
+    gram = np.einsum("wnh,wng->whg", h1, h1) + 1e-6 * np.eye(hidden + 1)
+    sol = np.linalg.solve(gram, np.einsum("wnh,wnk->whk", h1, x))  # [W, H+1, 2]
+    w2, b2 = np.transpose(sol[:, :hidden, :], (0, 2, 1)).copy(), sol[:, hidden, :].copy()
+
+    lr = settings.learning_rate
+    adam = _Adam([theta.shape, w1.shape, b1.shape, w2.shape, b2.shape], [settings.angle_learning_rate, lr, lr, lr, lr])
+    for _ in range(settings.iterations):
+        _, (g_theta, g_w1, g_b1, g_w2, g_b2) = loss_and_grads(theta, w1, b1, w2, b2, x, settings.weight_decay)
+        # each angle moves only its own sample: scale its gradient back up to that sample's own loss
+        theta, w1, b1, w2, b2 = adam.step([theta, w1, b1, w2, b2], [g_theta * n, g_w1, g_b1, g_w2, g_b2])
+
+    # every sample: nearest point of the densely sampled curve (standardised units)
+    grid = np.linspace(-np.pi, np.pi, settings.curve_points, endpoint=False)
+    curve = _forward(np.broadcast_to(grid, (n_win, grid.size)), w1, b1, w2, b2)[0]  # [W, M, 2]
+    dist = (
+        np.sum(x_all**2, axis=2)[:, :, None]
+        - 2 * np.einsum("wnk,wmk->wnm", x_all, curve)
+        + np.sum(curve**2, axis=2)[:, None, :]
+    )
+    nearest = np.argmin(dist, axis=2)  # [W, N]
+    theta_all = grid[nearest]
+    out = np.take_along_axis(curve, nearest[..., None], axis=1)
+    resid = x_all - out
+    explained = 1 - np.mean(resid**2, axis=(1, 2)) / np.mean(x_all**2, axis=(1, 2))
+    unwrapped = np.unwrap(theta_all, axis=1)
+    travel = np.sign(unwrapped[:, -1] - unwrapped[:, 0])
+    travel = np.where(travel == 0, 1.0, travel)
+    return InlpcaFit(
+        angles=unwrapped,
+        travel=travel,
+        denoised=out * scale[:, None, :] + mean[:, None, :],
+        residual_rms=np.sqrt(np.mean(resid**2, axis=1)) * scale,
+        explained=explained,
+        _params=(w1, b1, w2, b2, mean, scale),
+    )
