@@ -47,29 +47,25 @@ def _angle_of_max_op(fit: InlpcaFit) -> tuple[np.ndarray, np.ndarray]:
 
 
 def rebuilt_op(fit: InlpcaFit, period_s: np.ndarray, ts_s: float = 1.0, length: int = THESIS_WINDOW) -> np.ndarray:
-    """The thesis' reconstruction: OP along the curve at uniform angular speed, from the cycle start."""
+    """The thesis' reconstruction: OP along the curve at uniform angular speed, from the cycle start.
+
+    The start is where the curve's OP crosses its mean upwards, going round in the
+    direction of travel; rows without a period are ``nan``.
+    """
+    n_win = fit.travel.size
     grid = np.linspace(-np.pi, np.pi, 256, endpoint=False)
-    curve = fit.curve(np.broadcast_to(grid, (fit.travel.size, grid.size)))
-    op_curve = curve[..., 0]
-    centred = op_curve - op_curve.mean(axis=1, keepdims=True)
-    out = np.full((fit.travel.size, length), np.nan)
-    t = np.arange(length) * ts_s
-    for i in range(fit.travel.size):
-        if not np.isfinite(period_s[i]):
-            continue
-        ordered = centred[i] if fit.travel[i] > 0 else centred[i, ::-1]
-        angles = grid if fit.travel[i] > 0 else grid[::-1]
-        up = np.flatnonzero((ordered < 0) & (np.roll(ordered, -1) >= 0))
-        start = angles[(up[0] + 1) % grid.size] if up.size else angles[0]
-        walk = start + fit.travel[i] * 2 * np.pi * t / period_s[i]
-        out[i] = fit.curve(walk[None, :])[0, :, 0] if fit.travel.size == 1 else _curve_row(fit, i, walk)
+    op_curve = fit.curve(np.broadcast_to(grid, (n_win, grid.size)))[..., 0]
+    # the curve in its direction of travel: angle increments of travel * 2 pi / 256
+    order = np.where(fit.travel[:, None] > 0, np.arange(grid.size), np.arange(grid.size)[::-1])
+    ordered = np.take_along_axis(op_curve - op_curve.mean(axis=1, keepdims=True), order, axis=1)
+    up = (ordered < 0) & (np.roll(ordered, -1, axis=1) >= 0)
+    first = np.where(up.any(axis=1), (np.argmax(up, axis=1) + 1) % grid.size, 0)
+    start = grid[order[np.arange(n_win), first]]
+    period = np.where(np.isfinite(period_s), period_s, 1.0)
+    walk = start[:, None] + fit.travel[:, None] * 2 * np.pi * (np.arange(length) * ts_s)[None, :] / period[:, None]
+    out = fit.curve(walk)[..., 0]
+    out[~np.isfinite(period_s)] = np.nan
     return out
-
-
-def _curve_row(fit: InlpcaFit, i: int, angles: np.ndarray) -> np.ndarray:
-    full = np.zeros((fit.travel.size, angles.size))
-    full[i] = angles
-    return fit.curve(full)[i, :, 0]
 
 
 def cycle_features(fit: InlpcaFit, period_s: np.ndarray) -> np.ndarray:

@@ -30,6 +30,9 @@ class InlpcaSettings:
     seed: int = 0
 
 
+DEFAULT_SETTINGS = InlpcaSettings()
+
+
 @dataclass(frozen=True)
 class InlpcaFit:
     """Fitted curves of a batch; shapes in brackets, W windows, N samples."""
@@ -97,8 +100,30 @@ def _initial_angles(x: np.ndarray) -> np.ndarray:
     return np.arctan2(z[..., 0], z[..., 1])
 
 
-def fit(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = InlpcaSettings()) -> InlpcaFit:
+CHUNK_WINDOWS = 50
+"""Windows fitted together: larger batches are memory-bound (5.9 ms a window at 50, 13 ms at 200)."""
+
+
+def fit(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = DEFAULT_SETTINGS) -> InlpcaFit:
     """Fit one curve per row of ``op``, ``pv`` [W, N]; every sample is projected onto its curve."""
+    op, pv = np.atleast_2d(op), np.atleast_2d(pv)
+    if op.shape[0] <= CHUNK_WINDOWS:
+        return _fit_chunk(op, pv, settings)
+    parts = [
+        _fit_chunk(op[i : i + CHUNK_WINDOWS], pv[i : i + CHUNK_WINDOWS], settings)
+        for i in range(0, op.shape[0], CHUNK_WINDOWS)
+    ]
+    return InlpcaFit(
+        angles=np.concatenate([p.angles for p in parts]),
+        travel=np.concatenate([p.travel for p in parts]),
+        denoised=np.concatenate([p.denoised for p in parts]),
+        residual_rms=np.concatenate([p.residual_rms for p in parts]),
+        explained=np.concatenate([p.explained for p in parts]),
+        _params=tuple(np.concatenate([p._params[j] for p in parts]) for j in range(len(parts[0]._params))),
+    )
+
+
+def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings) -> InlpcaFit:
     data = np.stack([np.atleast_2d(op), np.atleast_2d(pv)], axis=-1).astype(float)  # [W, N, 2]
     n_win, n_all = data.shape[:2]
     mean = data.mean(axis=1)

@@ -11,6 +11,7 @@ from stiction.errors import StictionError
 
 COMMANDS = {
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
+    "quantify": "stiction reports for historian exports",
     "bench": "benchmarks: simulator speed against the reference",
 }
 

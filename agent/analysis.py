@@ -1,0 +1,62 @@
+"""The model-free half of the pipeline: period, denoising, features, physical reading.
+
+Pure numpy, batched over windows of equal length.  The trainer computes its
+features with this very function, so training and inference see the same inputs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from agent import features, inlpca, physical
+from agent.acf import acf_period
+
+ROUGHNESS_NOISY = 0.05
+"""Median |second difference| over median |first difference| of OP above which a window is noisy.
+
+A noise-free stiction OP is a chain of ramps, broken only at slips (about 0.01 here).
+"""
+
+
+@dataclass(frozen=True)
+class WindowAnalysis:
+    period_s: np.ndarray  # [W]
+    regularity: np.ndarray  # [W] ACF peak height
+    roughness: np.ndarray  # [W]
+    noisy: np.ndarray  # [W] bool: the thesis chain denoises these
+    fit: inlpca.InlpcaFit
+    thesis_input: np.ndarray  # [W, 100] raw window, or the rebuilt OP for noisy windows
+    cycle_input: np.ndarray  # [W, CYCLE_FEATURES]
+    physical: physical.PhysicalReading
+
+
+def roughness(op: np.ndarray) -> np.ndarray:
+    d1 = np.median(np.abs(np.diff(op, axis=1)), axis=1)
+    d2 = np.median(np.abs(np.diff(op, n=2, axis=1)), axis=1)
+    return d2 / np.maximum(d1, 1e-12)
+
+
+def analyse(
+    op: np.ndarray,
+    pv: np.ndarray,
+    ts_s: float = 1.0,
+    settings: inlpca.InlpcaSettings = inlpca.DEFAULT_SETTINGS,
+    denoise: bool | None = None,
+) -> WindowAnalysis:
+    """[W, N] OP and PV windows (percent, sample time ``ts_s``) -> everything the predictors need.
+
+    ``denoise``: whether the thesis chain uses the rebuilt OP; by default where OP is rough.
+    """
+    op, pv = np.atleast_2d(op).astype(float), np.atleast_2d(pv).astype(float)
+    period_s, regularity = acf_period(op, ts_s)
+    rough = roughness(op)
+    noisy = rough > ROUGHNESS_NOISY if denoise is None else np.full(op.shape[0], denoise)
+    fit = inlpca.fit(op, pv, settings)
+    raw = features.thesis_window(op)
+    rebuilt = features.rebuilt_op(fit, period_s, ts_s)
+    thesis_input = np.where(noisy[:, None], rebuilt, raw)
+    cycle_input = features.cycle_features(fit, period_s)
+    reading = physical.read(op, pv, ts_s)
+    return WindowAnalysis(period_s, regularity, rough, noisy, fit, thesis_input, cycle_input, reading)

@@ -1,0 +1,170 @@
+"""The pure pipeline ``windows (op, pv, ts) -> stiction reports``, used by ``quantify`` and the agent.
+
+Every window runs the thesis chain (ACF period, INLPCA denoiser for rough windows,
+the 100-sample OP network) and its estimate is in every report.  Beside it the
+report carries the physical reading of the slips and the learned cycle ensemble,
+and ``method`` says which one ``fs_pct``/``fd_pct`` come from:
+
+1. ``physical`` where the slips read fs and fd to within ``PHYSICAL_MAX_SE_PCT``;
+2. else ``learned``, the cycle ensemble on the INLPCA curve;
+3. else ``thesis``; ``none`` if not even that could run.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from agent.analysis import analyse
+from agent.predictor import load_models, model_version
+from schemas.report import Estimate, StictionReport
+from sim.valve import band_and_jump_pct
+from stiction.errors import InputError
+
+MIN_SAMPLES = 100
+"""The thesis' window; the ACF then finds a period only for cycles up to about 50 samples."""
+PHYSICAL_MAX_SE_PCT = 0.25
+REGULARITY_OSCILLATING = 0.3
+MAX_SLIPS_PER_PERIOD = 6  # more than this is noise read as slips
+
+
+@dataclass(frozen=True)
+class Window:
+    """One loop's recent samples: OP and PV in percent of span, evenly spaced by ``ts_s``."""
+
+    loop_id: str
+    op: np.ndarray
+    pv: np.ndarray
+    ts_s: float = 1.0
+    t_end_s: float | None = None
+    process: str | None = None
+    """``"level"`` for the canonical level loop (its physical reading applies); None when unknown."""
+
+    def validate(self) -> None:
+        op, pv = np.asarray(self.op), np.asarray(self.pv)
+        if op.ndim != 1 or op.shape != pv.shape:
+            raise InputError(f"loop {self.loop_id}: op and pv must be 1-D of equal length, got {op.shape}, {pv.shape}")
+        if op.size < MIN_SAMPLES:
+            raise InputError(f"loop {self.loop_id}: {op.size} samples, need at least {MIN_SAMPLES}")
+        for name, x in (("op", op), ("pv", pv)):
+            bad = np.flatnonzero(~np.isfinite(x))
+            if bad.size:
+                raise InputError(f"loop {self.loop_id}: {name} is not finite at sample {bad[0]} ({bad.size} samples)")
+        if not (math.isfinite(self.ts_s) and self.ts_s > 0):
+            raise InputError(f"loop {self.loop_id}: sample time must be > 0 s, got {self.ts_s}")
+        if self.process not in (None, "level"):
+            raise InputError(f"loop {self.loop_id}: process {self.process!r} unknown, expected 'level' or none")
+
+
+def _opt(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+class Quantifier:
+    """Loads the models once; ``quantify`` is then a pure function of the windows."""
+
+    def __init__(self, models_dir: Path | None = None):
+        self.thesis, self.cycle = load_models(models_dir)
+        self.model_version = model_version(self.thesis, self.cycle)
+
+    def quantify(self, windows: Sequence[Window], denoise: bool | None = None) -> list[StictionReport]:
+        """Reports in the order of ``windows``; windows of equal length and sample time are batched."""
+        for w in windows:
+            w.validate()
+        reports: list[StictionReport | None] = [None] * len(windows)
+        groups: dict[tuple[int, float], list[int]] = {}
+        for i, w in enumerate(windows):
+            groups.setdefault((len(w.op), float(w.ts_s)), []).append(i)
+        for (_, ts_s), idx in groups.items():
+            op = np.stack([np.asarray(windows[i].op, float) for i in idx])
+            pv = np.stack([np.asarray(windows[i].pv, float) for i in idx])
+            for j, report in zip(idx, self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise), strict=True):
+                reports[j] = report
+        return reports
+
+    def _batch(self, op, pv, ts_s, windows, denoise) -> list[StictionReport]:
+        a = analyse(op, pv, ts_s, denoise=denoise)
+        n = op.shape[0]
+        thesis_in = a.thesis_input
+        thesis_ok = np.all(np.isfinite(thesis_in), axis=1)
+        thesis = np.full((n, 2), np.nan)
+        if thesis_ok.any():
+            thesis[thesis_ok] = self.thesis.run(thesis_in[thesis_ok])["fs_fd_pct"]
+        cycle_ok = np.all(np.isfinite(a.cycle_input), axis=1)
+        learned, spread, ood = np.full((n, 2), np.nan), np.full((n, 2), np.nan), np.full(n, np.nan)
+        if cycle_ok.any():
+            out = self.cycle.run(a.cycle_input[cycle_ok])
+            learned[cycle_ok], spread[cycle_ok], ood[cycle_ok] = out["fs_fd_pct"], out["fs_fd_std_pct"], out["ood"]
+        phys = a.physical
+        n_samples = op.shape[1]
+        slip_limit = MAX_SLIPS_PER_PERIOD * n_samples * ts_s / np.where(np.isfinite(a.period_s), a.period_s, np.inf)
+        level = np.array([w.process == "level" for w in windows])
+        physical_ok = (
+            level
+            & np.isfinite(phys.fs_pct)
+            & (phys.fs_se_pct <= PHYSICAL_MAX_SE_PCT)
+            & (phys.fd_se_pct <= PHYSICAL_MAX_SE_PCT)
+            & (phys.slips <= slip_limit)
+        )
+        reports = []
+        for i, w in enumerate(windows):
+            warnings = []
+            oscillating = bool(np.isfinite(a.regularity[i]) and a.regularity[i] > REGULARITY_OSCILLATING)
+            if not oscillating:
+                warnings.append("no clear oscillation (ACF peak below 0.3): the estimates assume a stiction cycle")
+            if not level[i]:
+                warnings.append("process not declared: the physical reading of the slips (level loop) is not used")
+            if np.isfinite(ood[i]) and ood[i] > 1:
+                warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
+            if physical_ok[i]:
+                method, fs, fd = "physical", phys.fs_pct[i], phys.fd_pct[i]
+                fs_se, fd_se = phys.fs_se_pct[i], phys.fd_se_pct[i]
+            elif cycle_ok[i]:
+                method, fs, fd, fs_se, fd_se = "learned", learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]
+            elif thesis_ok[i]:
+                method, fs, fd, fs_se, fd_se = "thesis", thesis[i, 0], thesis[i, 1], np.nan, np.nan
+            else:
+                method, fs, fd, fs_se, fd_se = "none", np.nan, np.nan, np.nan, np.nan
+                warnings.append("no estimate: no oscillation period found")
+            fs, fd = _opt(fs), _opt(fd)
+            s_pct, j_pct = band_and_jump_pct(fs, fd) if fs is not None and fd is not None else (None, None)
+            reports.append(
+                StictionReport(
+                    loop_id=w.loop_id,
+                    fs_pct=fs,
+                    fd_pct=fd,
+                    s_pct=_opt(s_pct) if s_pct is not None else None,
+                    j_pct=_opt(j_pct) if j_pct is not None else None,
+                    fs_se_pct=_opt(fs_se),
+                    fd_se_pct=_opt(fd_se),
+                    period_s=_opt(a.period_s[i]),
+                    denoised=bool(a.noisy[i]),
+                    method=method,
+                    thesis=Estimate(fs_pct=_opt(thesis[i, 0]), fd_pct=_opt(thesis[i, 1])),
+                    physical=Estimate(
+                        fs_pct=_opt(phys.fs_pct[i]),
+                        fd_pct=_opt(phys.fd_pct[i]),
+                        fs_se_pct=_opt(phys.fs_se_pct[i]),
+                        fd_se_pct=_opt(phys.fd_se_pct[i]),
+                    ),
+                    learned=Estimate(
+                        fs_pct=_opt(learned[i, 0]),
+                        fd_pct=_opt(learned[i, 1]),
+                        fs_se_pct=_opt(spread[i, 0]),
+                        fd_se_pct=_opt(spread[i, 1]),
+                    ),
+                    ood_score=_opt(ood[i]),
+                    explained=_opt(a.fit.explained[i]),
+                    oscillating=oscillating,
+                    warnings=warnings,
+                    model_version=self.model_version,
+                    t_end_s=w.t_end_s,
+                    n_samples=int(n_samples),
+                )
+            )
+        return reports

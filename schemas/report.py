@@ -1,0 +1,53 @@
+"""The stiction report: output of ``stiction quantify`` and of the agent (spec/interfaces.md)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+SCHEMA_VERSION = 1
+
+
+class Estimate(BaseModel):
+    """One method's estimate of the friction, percent of 500 lbf (the thesis convention)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    fs_pct: float | None
+    fd_pct: float | None
+    fs_se_pct: float | None = Field(None, description="standard error of fs_pct, where the method gives one")
+    fd_se_pct: float | None = None
+
+
+class StictionReport(BaseModel):
+    """How sticky one loop's valve is, from one window of its OP and PV."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    loop_id: str
+    fs_pct: float | None = Field(description="static friction, percent of 500 lbf; None if not quantifiable")
+    fd_pct: float | None = Field(description="dynamic friction, percent of 500 lbf")
+    s_pct: float | None = Field(description="stiction band S = fs/12 in percent of span (Choudhury)")
+    j_pct: float | None = Field(description="slip jump J = (fs - fd)/12 in percent of span")
+    fs_se_pct: float | None = Field(description="uncertainty (one standard error) of fs_pct")
+    fd_se_pct: float | None = Field(description="uncertainty (one standard error) of fd_pct")
+    period_s: float | None = Field(description="oscillation period from the autocorrelation function")
+    denoised: bool = Field(description="the INLPCA denoiser ran on this window")
+    method: Literal["physical", "learned", "thesis", "none"] = Field(
+        description="which estimate fs_pct/fd_pct come from: the physical reading of the slips, the learned "
+        "cycle predictor, the thesis chain, or none"
+    )
+    thesis: Estimate = Field(description="the thesis chain's estimate (ACF, INLPCA, 100-sample OP MLP)")
+    physical: Estimate = Field(description="the physical reading of the slips (level loop)")
+    learned: Estimate = Field(description="the learned cycle predictor (ensemble mean and spread)")
+    ood_score: float | None = Field(
+        description="distance of the window from the training data: <= 1 inside the range of 99 % of training windows"
+    )
+    explained: float | None = Field(description="share of the standardised OP-PV variance the INLPCA curve explains")
+    oscillating: bool = Field(description="a clear oscillation was found (ACF peak above 0.3)")
+    warnings: list[str] = Field(default_factory=list)
+    model_version: str
+    t_end_s: float | None = Field(None, description="time of the window's last sample")
+    n_samples: int

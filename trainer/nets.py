@@ -1,0 +1,101 @@
+"""The networks, with normalisation inside so that the ONNX graph takes raw features.
+
+``ThesisMLP``: thesis 4.6, 100 OP samples -> 25 sigmoid units -> (fs_pct, fd_pct).
+``CycleEnsemble``: K small MLPs on the cycle features; outputs their mean, their
+spread (the uncertainty) and an out-of-distribution score of the input.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+
+class Standardise(nn.Module):
+    def __init__(self, mean: torch.Tensor, std: torch.Tensor):
+        super().__init__()
+        self.register_buffer("mean", mean.float())
+        self.register_buffer("std", std.float().clamp_min(1e-6))
+
+    def forward(self, x):
+        return (x - self.mean) / self.std
+
+
+class Unstandardise(Standardise):
+    def forward(self, x):
+        return x * self.std + self.mean
+
+
+class ThesisMLP(nn.Module):
+    def __init__(self, x_mean, x_std, y_mean, y_std, hidden: int = 25):
+        super().__init__()
+        self.inp = Standardise(x_mean, x_std)
+        self.net = nn.Sequential(nn.Linear(x_mean.numel(), hidden), nn.Sigmoid(), nn.Linear(hidden, 2))
+        self.out = Unstandardise(y_mean, y_std)
+
+    def forward(self, op_window):  # [B, 100] -> [B, 2]
+        return self.out(self.net(self.inp(op_window)))
+
+
+class CycleMLP(nn.Module):
+    def __init__(self, x_mean, x_std, y_mean, y_std, hidden: int = 64):
+        super().__init__()
+        self.inp = Standardise(x_mean, x_std)
+        n_in = x_mean.numel()
+        self.net = nn.Sequential(
+            nn.Linear(n_in, hidden), nn.Tanh(), nn.Linear(hidden, hidden), nn.Tanh(), nn.Linear(hidden, 2)
+        )
+        self.out = Unstandardise(y_mean, y_std)
+
+    def forward(self, features):  # [B, F] -> [B, 2]
+        return self.out(self.net(self.inp(features)))
+
+
+class OodScore(nn.Module):
+    """Mahalanobis distance in the training set's leading principal components plus the residual off them,
+
+    scaled so that 1.0 is the 99th percentile over the training windows.
+    """
+
+    def __init__(self, x_mean, x_std, components, sv, resid_scale, q99):
+        super().__init__()
+        self.inp = Standardise(x_mean, x_std)
+        self.register_buffer("components", components.float())  # [F, k]
+        self.register_buffer("sv", sv.float())  # [k]
+        self.register_buffer("resid_scale", resid_scale.float().reshape(()))
+        self.register_buffer("q99", q99.float().reshape(()))
+
+    def raw(self, features):
+        z = self.inp(features)  # [B, F]
+        proj = z @ self.components  # [B, k]
+        resid = z - proj @ self.components.T  # [B, F]
+        d2 = ((proj / self.sv) ** 2).mean(dim=1) + (resid**2).sum(dim=1) / self.resid_scale
+        return torch.sqrt(d2)  # [B]
+
+    def forward(self, features):
+        return self.raw(features) / self.q99
+
+
+class CycleEnsemble(nn.Module):
+    def __init__(self, members: list[CycleMLP], ood: OodScore):
+        super().__init__()
+        self.members = nn.ModuleList(members)
+        self.ood = ood
+
+    def forward(self, features):  # [B, F] -> [B, 2], [B, 2], [B]
+        preds = torch.stack([m(features) for m in self.members], dim=0)  # [K, B, 2]
+        return preds.mean(dim=0), preds.std(dim=0), self.ood(features)
+
+
+def fit_ood(x: torch.Tensor, k: int = 12) -> OodScore:
+    mean, std = x.mean(dim=0), x.std(dim=0)
+    z = (x - mean) / std.clamp_min(1e-6)
+    _, s, vh = torch.linalg.svd(z, full_matrices=False)
+    components = vh[:k].T
+    sv = s[:k] / (z.shape[0] - 1) ** 0.5
+    resid = z - (z @ components) @ components.T
+    resid_scale = (resid**2).sum(dim=1).mean().clamp_min(1e-6)
+    ood = OodScore(mean, std, components, sv, resid_scale, torch.tensor(1.0))
+    with torch.no_grad():
+        ood.q99 = torch.quantile(ood.raw(x), 0.99)
+    return ood
