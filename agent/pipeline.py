@@ -29,7 +29,7 @@ MIN_SAMPLES = 100
 """The thesis' window; the ACF then finds a period only for cycles up to about 50 samples."""
 PHYSICAL_MAX_SE_PCT = 0.25
 REGULARITY_OSCILLATING = 0.3
-MAX_SLIPS_PER_PERIOD = 6  # more than this is noise read as slips
+MAX_SLIPS_PER_PERIOD = 12  # more is noise read as slips (slow cycles may slip ~6 times a period)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,102 @@
+"""Historian exports: aliases, overrides, and every bad input named by file, row and column."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agent import historian
+from agent.historian import read_export
+from stiction.errors import InputError
+
+PLANT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "stictiongpt_plant" / "csv"
+
+
+def _write(tmp_path, text, name="x.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def _rows(n=12, ts=1.0):
+    return "".join(f"{k * ts:g},{np.sin(k):.4f},{np.cos(k):.4f}\n" for k in range(n))
+
+
+def test_aliases_and_sample_time_from_the_time_column(tmp_path):
+    e = read_export(_write(tmp_path, "Time,OP,PV\n" + _rows(ts=10.0)))
+    assert e.ts_s == 10.0 and e.op.size == 12 and e.sp is None
+
+
+def test_column_overrides_and_ts_flag_without_time(tmp_path):
+    text = "out_a,meas_b\n" + "".join(f"{k},{k * 2}\n" for k in range(5))
+    e = read_export(_write(tmp_path, text), ts_s=5.0, columns={"op": "out_a", "pv": "meas_b"})
+    assert e.ts_s == 5.0 and e.pv[2] == 4.0 and e.t_s[-1] == 20.0
+
+
+def test_iso_timestamps(tmp_path):
+    text = "timestamp,op,pv\n" + "".join(f"2026-01-01T00:00:{k:02d},{k},{k}\n" for k in range(0, 30, 2))
+    assert read_export(_write(tmp_path, text)).ts_s == 2.0
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("t,pv\n0,1\n", "no op column"),
+        ("", "empty file"),
+        ("t,op,pv\n", "header only"),
+        ("t,op,pv\n0,1,2\n1,abc,2\n", r"row 3, column 'op': 'abc' is not a number"),
+        ("t,op,pv\n0,1,2\n1,nan,2\n", r"row 3, column 'op': 'nan', expected a finite number"),
+        ("t,op,pv\n0,1,2\n1,1\n", "row 3 has 2 fields"),
+        ("t,op,pv\n" + _rows(5) + "3,1,1\n", "row 7: time 3 goes back"),
+        ("t,op,pv\n0,1,1\n1,1,1\n1,1,1\n2,1,1\n", "row 4: time 1 repeats"),
+        ("t,op,pv\n" + _rows(12) + "30,1,1\n", "row 14: time step 19 s"),
+    ],
+)
+def test_bad_exports_name_what_was_wrong(tmp_path, text, message):
+    with pytest.raises(InputError, match=message):
+        read_export(_write(tmp_path, text))
+
+
+def test_missing_override_column_and_missing_file(tmp_path):
+    with pytest.raises(InputError, match="no column 'valve_out' for op"):
+        read_export(_write(tmp_path, "t,op,pv\n" + _rows()), columns={"op": "valve_out"})
+    with pytest.raises(InputError, match="no such file"):
+        read_export(tmp_path / "nope.csv")
+
+
+def test_huge_file_is_refused_before_reading(tmp_path, monkeypatch):
+    monkeypatch.setattr(historian, "MAX_BYTES", 100)
+    with pytest.raises(InputError, match="more than the 100"):
+        read_export(_write(tmp_path, "t,op,pv\n" + _rows(50)))
+
+
+def test_binary_file_is_refused(tmp_path):
+    p = tmp_path / "b.csv"
+    p.write_bytes(b"t,op,pv\n\xff\xfe\x00\x01")
+    with pytest.raises(InputError, match="not a text CSV"):
+        read_export(p)
+
+
+def test_isolated_rounded_timestamps_are_read_as_evenly_sampled(tmp_path):
+    t = np.arange(100) * 10.0
+    t[[20, 41]] = t[[19, 40]]  # stamped with the predecessor's time, then a double step
+    t[0] = -10.0  # and a first row one step early
+    text = "t_s,op,pv\n" + "".join(f"{a:g},{k},{k}\n" for k, a in enumerate(t))
+    e = read_export(_write(tmp_path, text))
+    np.testing.assert_array_equal(e.t_s, np.arange(100) * 10.0)
+    assert any("3 timestamps" in w for w in e.warnings)
+
+
+def test_fraction_op_and_mode_changes_warn(tmp_path):
+    text = "t,op,pv,mode\n" + "".join(f"{k},{0.5 + 0.1 * np.sin(k):.3f},1,{int(k > 5)}\n" for k in range(12))
+    warnings = " ".join(read_export(_write(tmp_path, text)).warnings)
+    assert "fraction" in warnings and "manual" in warnings
+
+
+@pytest.mark.skipif(not PLANT.is_dir(), reason="shared/data not beside the checkout")
+def test_every_measured_plant_loop_reads_as_it_is():
+    files = sorted(PLANT.glob("*.csv"))
+    assert len(files) == 60
+    for f in files:
+        e = read_export(f)
+        assert e.op.size >= 100 and e.ts_s in (10.0, 60.0), f

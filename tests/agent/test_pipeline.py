@@ -1,0 +1,96 @@
+"""The pure pipeline: which estimate it trusts, how good it is, what it refuses."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from agent.pipeline import Quantifier, Window
+from schemas.report import StictionReport
+from sim.grid import case_specs
+from sim.loop import simulate
+from stiction.errors import InputError
+
+
+@pytest.fixture(scope="module")
+def quantifier():
+    return Quantifier()
+
+
+@pytest.fixture(scope="module")
+def cases():
+    specs = case_specs(seed=7)
+    r = simulate(list(specs.values())).kept()
+    return specs, r
+
+
+def _windows(specs, r, process="level"):
+    return [Window(name, r.op[i], r.pv[i], process=process) for i, name in enumerate(specs)]
+
+
+def test_noise_free_cases_are_read_physically_and_exactly(quantifier, cases):
+    specs, r = cases
+    reports = quantifier.quantify(_windows(specs, r)[:10])
+    errors = []
+    for rep, spec in zip(reports, list(specs.values())[:10], strict=True):
+        assert rep.method == "physical" and not rep.denoised
+        errors += [abs(rep.fs_pct - spec.fs_pct), abs(rep.fd_pct - spec.fd_pct)]
+        assert rep.s_pct == pytest.approx(rep.fs_pct * 5 / 12)
+    assert np.mean(errors) < 0.1
+
+
+def test_white_noise_falls_back_to_the_learned_ensemble(quantifier, cases):
+    specs, r = cases
+    reports = quantifier.quantify(_windows(specs, r)[13:16])  # N4-N6: gaussian
+    for rep in reports:
+        assert rep.method == "learned" and rep.denoised
+        assert rep.fs_se_pct is not None and rep.fs_se_pct > 0
+
+
+def test_every_report_carries_the_thesis_chain_and_validates(quantifier, cases):
+    specs, r = cases
+    for rep in quantifier.quantify(_windows(specs, r, process=None)):
+        assert rep.thesis.fs_pct is not None and rep.method != "physical"
+        assert StictionReport.model_validate_json(rep.model_dump_json()) == rep
+
+
+def test_batched_equals_one_at_a_time(quantifier, cases):
+    specs, r = cases
+    windows = _windows(specs, r)[:4]
+    together = quantifier.quantify(windows)
+    for w, rep in zip(windows, together, strict=True):
+        alone = quantifier.quantify([w])[0]
+        assert alone.fs_pct == pytest.approx(rep.fs_pct, abs=1e-4)
+        assert alone.thesis.fs_pct == pytest.approx(rep.thesis.fs_pct, abs=1e-4)
+
+
+def test_flat_loop_is_reported_as_not_oscillating(quantifier):
+    rng = np.random.default_rng(0)
+    rep = quantifier.quantify([Window("flat", rng.normal(0, 0.01, 600), rng.normal(0, 0.01, 600))])[0]
+    assert not rep.oscillating
+    assert any("oscillation" in w for w in rep.warnings)
+
+
+@pytest.mark.parametrize(
+    ("window", "message"),
+    [
+        (Window("a", np.ones(50), np.ones(50)), "at least 100"),
+        (Window("b", np.r_[np.ones(300), np.nan], np.ones(301)), "op is not finite at sample 300"),
+        (Window("c", np.ones(300), np.ones(299)), "equal length"),
+        (Window("d", np.ones(300), np.ones(300), ts_s=0.0), "sample time"),
+        (Window("e", np.ones(300), np.ones(300), process="pressure"), "process"),
+    ],
+)
+def test_bad_windows_are_refused_with_the_reason(quantifier, window, message):
+    with pytest.raises(InputError, match=message):
+        quantifier.quantify([window])
+
+
+def test_agent_core_imports_no_torch_zenoh_or_rerun():
+    code = (
+        "import sys, agent.pipeline, agent.analysis, agent.historian; "
+        "print(sorted(m for m in ('torch', 'zenoh', 'rerun', 'control') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

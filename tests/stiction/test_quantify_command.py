@@ -1,0 +1,45 @@
+"""``stiction quantify`` as a user runs it."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from stiction.cli import main
+
+
+@pytest.fixture(scope="module")
+def loops(tmp_path_factory):
+    d = tmp_path_factory.mktemp("loops")
+    main(["simulate", "--fs-pct", "50", "--fd-pct", "20", "--out", str(d / "a.csv")])
+    main(["simulate", "--case", "N5", "--seed", "2", "--out", str(d / "n5.csv")])
+    (d / "bad.csv").write_text("t,op,pv\n0,1,2\n1,x,2\n")
+    return d
+
+
+def test_json_lines_one_report_per_file(loops, capsys):
+    assert main(["quantify", "--json", "--process", "level", str(loops / "a.csv"), str(loops / "n5.csv")]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    reports = [json.loads(line) for line in lines]
+    assert [r["loop_id"] for r in reports] == ["a", "n5"]
+    assert reports[0]["method"] == "physical"
+    assert reports[0]["fs_pct"] == pytest.approx(50, abs=0.1) and reports[0]["fd_pct"] == pytest.approx(20, abs=0.1)
+    assert reports[1]["denoised"] and reports[1]["method"] == "learned"
+
+
+def test_bad_file_is_named_and_the_others_still_reported(loops):
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.cli", "quantify", "--json", str(loops / "bad.csv"), str(loops / "a.csv")],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2
+    assert "bad.csv: row 3, column 'op': 'x' is not a number" in done.stderr and "Traceback" not in done.stderr
+    assert json.loads(done.stdout)["loop_id"] == "a"
+
+
+def test_readable_summary(loops, capsys):
+    assert main(["quantify", str(loops / "a.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "fs 5" in out and "thesis chain" in out and "process not declared" in out
