@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from sim.disturbance import Disturbance
 from sim.loop import LoopSpec
 from sim.valve import lbf_to_pct
@@ -50,3 +52,24 @@ def case_specs(seed: int = 0) -> dict[str, LoopSpec]:
     cases = {name: LoopSpec(fs, fd) for name, (fs, fd) in NOISE_FREE_CASES.items()}
     cases.update({name: LoopSpec(fs, fd, disturbance=d, seed=seed) for name, (fs, fd, d) in NOISY_CASES.items()})
     return cases
+
+
+def random_disturbance(rng: np.random.Generator) -> Disturbance:
+    """The families of thesis 4.2 with coefficients and frequencies around the test cases'."""
+    shape = rng.choice(["sine", "gaussian", "brownian"])
+    where = rng.choice(["input", "output"])
+    coefficient = float(rng.uniform(0.03, 0.3))
+    omega = float(np.exp(rng.uniform(np.log(0.05), np.log(4.0)))) if shape == "sine" else None
+    return Disturbance(str(shape), str(where), coefficient, omega)
+
+
+def random_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
+    """Random loops (continuous fs, fd) with random disturbances: the holdout no model is tuned on."""
+    rng = np.random.default_rng(seed)
+    specs = []
+    for _ in range(n):
+        fs = float(rng.uniform(4, 100))
+        fd = float(fs * rng.uniform(0, 0.95))
+        d = random_disturbance(rng) if noisy else None
+        specs.append(LoopSpec(fs, fd, disturbance=d, seed=int(rng.integers(2**31))))
+    return specs

@@ -11,6 +11,7 @@ from stiction.errors import StictionError
 
 COMMANDS = {
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
+    "train": "rebuild every model offline from the simulator",
     "quantify": "stiction reports for historian exports",
     "bench": "benchmarks: simulator speed against the reference",
 }
@@ -22,7 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, text in COMMANDS.items():
         module = importlib.import_module(f"stiction.commands.{name}")
-        p = sub.add_parser(name, help=text, description=(module.__doc__ or text).strip())
+        p = sub.add_parser(name, help=text, description=(module.__doc__ or text).replace("``", "").strip())
         module.add_arguments(p)
         p.set_defaults(_module=module)
     return parser

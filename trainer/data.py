@@ -9,9 +9,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from agent.analysis import analyse
-from sim.disturbance import Disturbance
-from sim.grid import training_specs
-from sim.loop import LoopSpec, simulate
+from sim.grid import random_disturbance, training_specs
+from sim.loop import simulate
 
 WINDOW_S = 1000
 
@@ -27,15 +26,6 @@ class Dataset:
         for a in (self.inputs, self.targets, self.groups):
             h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         return h.hexdigest()
-
-
-def random_disturbance(rng: np.random.Generator) -> Disturbance:
-    """The families of thesis 4.2 with coefficients and frequencies around the test cases'."""
-    shape = rng.choice(["sine", "gaussian", "brownian"])
-    where = rng.choice(["input", "output"])
-    coefficient = float(rng.uniform(0.03, 0.3))
-    omega = float(np.exp(rng.uniform(np.log(0.05), np.log(4.0)))) if shape == "sine" else None
-    return Disturbance(str(shape), str(where), coefficient, omega)
 
 
 def thesis_set() -> Dataset:
@@ -86,15 +76,3 @@ def _finite(ds: Dataset) -> Dataset:
     """Drop windows without a full feature vector (no ACF period): the agent reports no learned estimate there."""
     ok = np.all(np.isfinite(ds.inputs), axis=1)
     return Dataset(ds.inputs[ok], ds.targets[ok], ds.groups[ok])
-
-
-def random_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
-    """Random loops (continuous fs, fd) with random disturbances: the holdout no model is tuned on."""
-    rng = np.random.default_rng(seed)
-    specs = []
-    for _ in range(n):
-        fs = float(rng.uniform(4, 100))
-        fd = float(fs * rng.uniform(0, 0.95))
-        d = random_disturbance(rng) if noisy else None
-        specs.append(LoopSpec(fs, fd, disturbance=d, seed=int(rng.integers(2**31))))
-    return specs

@@ -19,6 +19,8 @@ class FitSettings:
     learning_rate: float = 1e-2
     weight_decay: float = 0.0
     seed: int = 0
+    optimiser: str = "adam"
+    """``adam`` (minibatch) or ``lbfgs`` (full batch, a second-order method like MATLAB's default trainer)."""
 
 
 @dataclass(frozen=True)
@@ -41,9 +43,14 @@ def fit(
 ) -> FitResult:
     """Train in place; on return the model holds the weights of its best validation epoch."""
     torch.manual_seed(settings.seed)
-    opt = torch.optim.Adam(model.parameters(), lr=settings.learning_rate, weight_decay=settings.weight_decay)
+    if settings.optimiser == "lbfgs":
+        opt = torch.optim.LBFGS(
+            model.parameters(), lr=settings.learning_rate, max_iter=20, line_search_fn="strong_wolfe"
+        )
+    else:
+        opt = torch.optim.Adam(model.parameters(), lr=settings.learning_rate, weight_decay=settings.weight_decay)
     n = x_train.shape[0]
-    batch = settings.batch_size or n
+    batch = n if settings.optimiser == "lbfgs" else (settings.batch_size or n)
     best, best_state, best_epoch, train_loss = float("inf"), None, -1, float("nan")
     epoch = 0
     for epoch in range(settings.epochs):
@@ -51,10 +58,14 @@ def fit(
         order = torch.randperm(n)
         for i in range(0, n, batch):
             idx = order[i : i + batch]
-            opt.zero_grad()
-            loss = loss_fn(model(x_train[idx]), y_train[idx])
-            loss.backward()
-            opt.step()
+
+            def closure(idx=idx):
+                opt.zero_grad()
+                loss = loss_fn(model(x_train[idx]), y_train[idx])
+                loss.backward()
+                return loss
+
+            opt.step(closure)
         model.eval()
         with torch.no_grad():
             train_loss = float(loss_fn(model(x_train), y_train))

@@ -6,6 +6,7 @@ import argparse
 import json
 import os
 import platform
+import sys
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -14,6 +15,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--reference-loops", type=int, default=3, help="grid points run through the slow reference")
     s.add_argument("--repeats", type=int, default=3, help="grid timings; the median is reported")
     s.add_argument("--json", action="store_true")
+    a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
+    a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
+    a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
+    a.add_argument("--holdout", type=int, default=200, help="random loops with random disturbances")
+    a.add_argument("--no-hammerstein", action="store_true", help="skip the slowest baseline")
+    a.add_argument("--json", action="store_true")
 
 
 def _machine() -> dict:
@@ -22,7 +29,7 @@ def _machine() -> dict:
 
 def run(args: argparse.Namespace) -> int:
     if args.bench == "sim":
-        from sim.bench import bench_sim
+        from bench.sim_speed import bench_sim
 
         figures = bench_sim(reference_loops=args.reference_loops, repeats=args.repeats) | {"host": _machine()}
         if args.json:
@@ -41,4 +48,44 @@ def run(args: argparse.Namespace) -> int:
                 f"  speedup            {figures['speedup']:8.0f} x  (same loops one at a time:"
                 f" {figures['speedup_single_loop']:.0f} x)"
             )
+    elif args.bench == "accuracy":
+        _accuracy(args)
     return 0
+
+
+def _accuracy(args) -> None:
+    from bench.accuracy import METHODS, bench_accuracy
+
+    figures = bench_accuracy(
+        args.realisations,
+        args.seeds,
+        args.holdout,
+        not args.no_hammerstein,
+        progress=lambda name: print(f"  done: {name}", file=sys.stderr),
+    ) | {"host": _machine()}
+    if args.json:
+        print(json.dumps(figures))
+        return
+    sets = ["C1-C10", "N1-N10", "holdout"]
+    print(
+        "mean absolute error, percentage points of 500 lbf over fs and fd (thesis Tables 5.1, 5.2); CPU time per loop"
+    )
+    print(f"{'method':55s}" + "".join(f"{s:>22s}" for s in sets))
+    for key, label in METHODS.items():
+        row = figures["methods"].get(key)
+        if not row:
+            continue
+        cells = "".join(f"{row[s]['mae_pp']:>9.2f} pp {row[s]['s_per_loop'] * 1e3:>7.1f} ms" for s in sets)
+        print(f"{label:55s}{cells}")
+    n = {s: figures["methods"]["b_pipeline"][s]["n"] for s in sets}
+    print(f"{'loops':55s}" + "".join(f"{n[s]:>22d}" for s in sets))
+    print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
+    used = {s: figures["methods"]["b_pipeline"][s]["methods"] for s in sets}
+    print(
+        "(b) used: " + "; ".join(f"{s}: " + ", ".join(f"{k} {v}" for k, v in u.items() if v) for s, u in used.items())
+    )
+    floor = figures["thesis_mlp_chaos_floor"]
+    print(
+        f"thesis MLP on its own 1275 training patterns {floor['training_realisation']:.2f} pp, on fresh "
+        f"realisations of the same grid points {floor['fresh_realisation']:.2f} pp (the chaos floor)"
+    )

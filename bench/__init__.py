@@ -1,0 +1,1 @@
+"""Benchmarks and the literature baselines they compare against."""

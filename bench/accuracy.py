@@ -1,0 +1,113 @@
+"""``stiction bench accuracy``: methods x test sets, mean absolute error (thesis Tables 5.1, 5.2) and time per loop.
+
+Sets: C1-C10 over fresh realisations (the chaos makes each realisation a new draw:
+SP is moved by 1e-9 %), N1-N10 over seeds, and a holdout of random loops (fs, fd
+continuous) with random disturbances, drawn with a seed no model saw.  Methods:
+(a) the thesis chain, (b) this project's pipeline, (c) the Hammerstein search and
+Choudhury's ellipse (fs only: it gives no fd).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from agent.features import thesis_window
+from agent.pipeline import Quantifier, Window
+from bench.baselines.ellipse import apparent_stiction
+from bench.baselines.hammerstein import hammerstein_search
+from sim.grid import case_specs, random_loops, training_specs
+from sim.loop import simulate
+
+HOLDOUT_SEED = 20261121
+
+METHODS = {
+    "a_thesis": "(a) thesis chain: ACF, INLPCA, rebuilt OP, 100-sample MLP",
+    "b_pipeline": "(b) pipeline: physical reading, else cycle ensemble",
+    "c_hammerstein": "(c) Hammerstein search, He's valve, known process",
+    "c_ellipse": "(c) Choudhury ellipse, apparent stiction (fs only)",
+}
+
+
+def test_sets(realisations: int, seeds: int, holdout: int) -> dict[str, tuple[list, bool]]:
+    """name -> (specs, the thesis would denoise these)."""
+    clean = [
+        replace(s, sp_pct=1.0 + 1e-9 * r)
+        for r in range(realisations)
+        for n, s in case_specs().items()
+        if n.startswith("C")
+    ]
+    noisy = [s for seed in range(seeds) for n, s in case_specs(seed=seed).items() if n.startswith("N")]
+    return {"C1-C10": (clean, False), "N1-N10": (noisy, True), "holdout": (random_loops(holdout, HOLDOUT_SEED), True)}
+
+
+def _mae(est: np.ndarray, truth: np.ndarray) -> float:
+    ok = np.isfinite(est)
+    return float(np.mean(np.abs(est[ok] - truth[ok]))) if ok.any() else float("nan")
+
+
+def _timed(fn):
+    started = time.process_time()
+    out = fn()
+    return out, time.process_time() - started
+
+
+def chaos_floor(quantifier: Quantifier) -> dict:
+    """The thesis MLP on its own training patterns, and on fresh realisations of the same grid points."""
+    specs = training_specs()
+    trained = simulate(specs).kept()
+    fresh = simulate([replace(s, sp_pct=1.0 + 1e-9) for s in specs]).kept()
+    truth = np.array([[s.fs_pct, s.fd_pct] for s in specs])
+    out = {}
+    for name, r in (("training_realisation", trained), ("fresh_realisation", fresh)):
+        est = quantifier.thesis.run(thesis_window(r.op))["fs_fd_pct"]
+        out[name] = _mae(est, truth)
+    return out
+
+
+def bench_accuracy(
+    realisations: int = 5, seeds: int = 20, holdout: int = 200, hammerstein: bool = True, progress=None
+) -> dict:
+    quantifier = Quantifier()
+    results: dict[str, dict] = {m: {} for m in METHODS}
+    for set_name, (specs, thesis_denoises) in test_sets(realisations, seeds, holdout).items():
+        r = simulate(specs).kept()
+        truth = np.array([[s.fs_pct, s.fd_pct] for s in specs])
+        n = len(specs)
+        windows = [Window(f"{set_name}-{i}", r.op[i], r.pv[i], process="level") for i in range(n)]
+        thesis_reports, t_thesis = _timed(lambda w=windows, d=thesis_denoises: quantifier.quantify(w, denoise=d))
+        reports, t_best = _timed(lambda w=windows: quantifier.quantify(w))
+        a = np.array([[x.thesis.fs_pct or np.nan, x.thesis.fd_pct or np.nan] for x in thesis_reports])
+        b = np.array(
+            [
+                [x.fs_pct if x.fs_pct is not None else np.nan, x.fd_pct if x.fd_pct is not None else np.nan]
+                for x in reports
+            ]
+        )
+        methods_used = {m: sum(x.method == m for x in reports) for m in ("physical", "learned", "thesis", "none")}
+        results["a_thesis"][set_name] = {"mae_pp": _mae(a, truth), "s_per_loop": t_thesis / n, "n": n}
+        results["b_pipeline"][set_name] = {
+            "mae_pp": _mae(b, truth),
+            "s_per_loop": t_best / n,
+            "n": n,
+            "methods": methods_used,
+        }
+        if hammerstein:
+            c, t_c = _timed(lambda r=r: hammerstein_search(r.op, r.pv))
+            results["c_hammerstein"][set_name] = {"mae_pp": _mae(c, truth), "s_per_loop": t_c / n, "n": n}
+        e, t_e = _timed(lambda r=r: apparent_stiction(r.op, r.pv))
+        results["c_ellipse"][set_name] = {
+            "mae_pp": _mae(e[:, :1], truth[:, :1]),
+            "s_per_loop": t_e / n,
+            "n": n,
+            "fs_only": True,
+        }
+        if progress:
+            progress(set_name)
+    return {
+        "methods": {m: v for m, v in results.items() if v},
+        "thesis_mlp_chaos_floor": chaos_floor(quantifier),
+        "thesis_reported_mae_pp": {"C1-C10": 0.65, "N1-N10": 1.85},
+    }

@@ -1,0 +1,1 @@
+"""Methods from the literature the thesis argues against, implemented as well as we would a feature."""
