@@ -10,6 +10,9 @@ import sys
 from stiction.errors import StictionError
 
 COMMANDS = {
+    "demo": "the main job: simulator, agent and live table in one process, then a summary",
+    "sim": "stream simulated noisy loops over Zenoh",
+    "agent": "quantify loops streamed over Zenoh and publish reports",
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
     "train": "rebuild every model offline from the simulator",
     "quantify": "stiction reports for historian exports",

@@ -1,0 +1,172 @@
+"""The agent's pure core: messages in, windows due for a report out; no Zenoh, no clock of its own.
+
+Ownership: each loop belongs to the live agent that ranks first for it by
+rendezvous hashing; the agent ranking second keeps the loop's window too, so
+that it reports at once when the owner's liveliness token disappears.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+from collections import Counter
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import ValidationError
+
+from agent.pipeline import Window
+from agent.window import RollingWindow
+from schemas import keys
+from schemas.messages import SampleBatch
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class CoreSettings:
+    prefix: str = keys.DEFAULT_PREFIX
+    window_samples: int = 1000
+    report_every_samples: int = 60
+    max_loops: int = 20000
+    max_payload_bytes: int = 512 * 1024
+    replicas: int = 2
+
+
+def rank(agent_id: str, loop_id: str) -> int:
+    digest = hashlib.blake2b(f"{agent_id}\0{loop_id}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "big")
+
+
+@dataclass
+class _Loop:
+    window: RollingWindow
+    process: str | None
+    new_since_report: int = 0
+    arrived_at: float = 0.0
+
+
+class AgentCore:
+    def __init__(self, agent_id: str, settings: CoreSettings = CoreSettings()):
+        self.agent_id = keys.check_id(agent_id, "agent id")
+        self.settings = settings
+        self.loops: dict[str, _Loop] = {}
+        self.rejected: Counter[str] = Counter()
+        self.samples = 0
+        self.reports = 0
+        self.latencies: list[float] = []
+        self.agents: tuple[str, ...] = (self.agent_id,)
+        self._roles: dict[str, int] = {}  # loop -> its rank among live agents, cached per membership
+
+    # ownership -------------------------------------------------------------------------------
+    def set_agents(self, alive: set[str]) -> None:
+        agents = tuple(sorted(alive | {self.agent_id}))
+        if agents != self.agents:
+            log.info("agents alive: %s", ", ".join(agents))
+            self.agents = agents
+            self._roles.clear()
+
+    def role(self, loop_id: str) -> int:
+        """0 if this agent owns the loop, 1 if it ranks second, ... among the live agents."""
+        r = self._roles.get(loop_id)
+        if r is None:
+            order = sorted(self.agents, key=lambda a: rank(a, loop_id), reverse=True)
+            r = self._roles[loop_id] = order.index(self.agent_id)
+        return r
+
+    def owns(self, loop_id: str) -> bool:
+        return self.role(loop_id) == 0
+
+    # ingest ----------------------------------------------------------------------------------
+    def reject(self, reason: str, detail: str = "") -> None:
+        self.rejected[reason] += 1
+        log.debug("rejected (%s) %s", reason, detail)
+
+    def ingest(self, key: str, payload: bytes, encoding: str, now_s: float) -> None:
+        """One message from ``{prefix}/loop/{id}/samples``; anything wrong is counted, never raised."""
+        loop_id = keys.loop_id_of(self.settings.prefix, key)
+        if loop_id is None:
+            return self.reject("bad_key", key)
+        if self.role(loop_id) >= self.settings.replicas:
+            return None  # another agent's loop, and not one this agent would inherit
+        if len(payload) > self.settings.max_payload_bytes:
+            return self.reject("oversized_payload", f"{key}: {len(payload)} bytes")
+        if not encoding.startswith("application/json"):
+            return self.reject("wrong_encoding", f"{key}: {encoding}")
+        try:
+            batch = SampleBatch.model_validate_json(payload)
+        except ValidationError as e:
+            return self.reject(_reason(e), f"{key}: {e.errors()[0]['msg']}")
+        if batch.loop_id != loop_id:
+            return self.reject("loop_id_mismatch", f"{key} carries {batch.loop_id}")
+        state = self.loops.get(loop_id)
+        if state is None:
+            if len(self.loops) >= self.settings.max_loops:
+                return self.reject("too_many_loops", loop_id)
+            state = self.loops[loop_id] = _Loop(RollingWindow(self.settings.window_samples, batch.ts_s), batch.process)
+        w = state.window
+        if w.next_seq is not None:
+            if batch.ts_s != w.ts_s:
+                self.reject("sample_time_changed", loop_id)
+                w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
+                state.new_since_report = 0
+            elif batch.seq + len(batch.op) <= w.next_seq:
+                return self.reject("duplicate", f"{loop_id} seq {batch.seq}")
+            elif batch.seq < w.next_seq:
+                return self.reject("out_of_order", f"{loop_id} seq {batch.seq} < {w.next_seq}")
+            elif batch.seq > w.next_seq:
+                self.reject("gap", f"{loop_id} seq {batch.seq} > {w.next_seq}: window restarted")
+                w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
+                state.new_since_report = 0
+        w.update(batch.seq, batch.t0_s, batch.op, batch.pv)
+        state.process = batch.process
+        state.new_since_report += len(batch.op)
+        state.arrived_at = now_s
+        self.samples += len(batch.op)
+        return None
+
+    # reports ---------------------------------------------------------------------------------
+    def due(self) -> list[tuple[Window, float]]:
+        """Owned loops with a full window and enough new samples: (window, arrival time of its last sample)."""
+        out = []
+        for loop_id, state in self.loops.items():
+            w = state.window
+            if (
+                w.count >= self.settings.window_samples
+                and state.new_since_report >= self.settings.report_every_samples
+                and self.owns(loop_id)
+            ):
+                op, pv = w.get()
+                out.append((Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process), state.arrived_at))
+                state.new_since_report = 0
+        return out
+
+    def completed(self, n_reports: int, arrivals: list[float], now_s: float) -> None:
+        self.reports += n_reports
+        self.latencies.extend(now_s - a for a in arrivals)
+        del self.latencies[:-5000]
+
+    def pending(self) -> int:
+        return sum(1 for s in self.loops.values() if s.new_since_report >= self.settings.report_every_samples)
+
+    def latency_percentiles(self) -> tuple[float | None, float | None]:
+        if not self.latencies:
+            return None, None
+        lat = np.asarray(self.latencies)
+        return float(np.percentile(lat, 50)), float(np.percentile(lat, 99))
+
+
+def _reason(error: ValidationError) -> str:
+    first = error.errors()[0]
+    kind, loc = first["type"], first["loc"]
+    if kind == "json_invalid":
+        return "malformed_json"
+    if loc and loc[0] == "schema_version":
+        return "wrong_schema_version"
+    if kind == "missing":
+        return "missing_field"
+    if kind == "finite_number":
+        return "not_finite"
+    if kind == "too_long":
+        return "oversized_batch"
+    return "invalid_field"

@@ -1,0 +1,185 @@
+"""The agent on Zenoh: the only module of the agent that talks to it.
+
+The subscriber callback only queues ``(key, payload, encoding, arrival)``: Zenoh
+runs callbacks on one thread holding the GIL.  One worker loop drains the queue into
+the pure core, quantifies the windows that are due in batches, and publishes their
+reports.  Liveliness tokens of ``{prefix}/agent/*`` give the set of live agents, and
+with it which loops are this agent's.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+from agent.core import AgentCore, CoreSettings
+from agent.pipeline import Quantifier
+from schemas import keys
+from schemas.messages import AgentHealth
+from stiction.errors import StictionError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class AgentSettings:
+    agent_id: str
+    prefix: str = keys.DEFAULT_PREFIX
+    window_samples: int = 1000
+    report_every_samples: int = 60
+    models_dir: Path | None = None
+    health_every_s: float = 2.0
+    max_batch: int = 200
+    """Windows quantified together at most (the pipeline batches them)."""
+
+
+class AgentService:
+    def __init__(self, settings: AgentSettings, session, quantifier: Quantifier | None = None):
+        import zenoh
+
+        self._zenoh = zenoh
+        self.settings = settings
+        self.session = session
+        self.quantifier = quantifier or Quantifier(settings.models_dir)
+        self.core = AgentCore(
+            settings.agent_id,
+            CoreSettings(
+                prefix=settings.prefix,
+                window_samples=settings.window_samples,
+                report_every_samples=settings.report_every_samples,
+            ),
+        )
+        self.latest: dict[str, bytes] = {}
+        self._inbox: deque = deque()
+        self._wake = threading.Event()
+        self._alive: set[str] = set()
+        self._alive_lock = threading.Lock()
+        self._started = time.monotonic()
+        self._last_health = 0.0
+        self._declared: list = []
+        self.on_report = None  # optional hook(report) for in-process consumers (demo, viewer)
+
+    # zenoh callbacks: keep them tiny ------------------------------------------------------------
+    def _on_sample(self, sample) -> None:
+        self._inbox.append((str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), time.monotonic()))
+        self._wake.set()
+
+    def _on_agent(self, sample) -> None:
+        agent_id = keys.agent_id_of(self.settings.prefix, str(sample.key_expr))
+        if agent_id is None:
+            return
+        with self._alive_lock:
+            if sample.kind == self._zenoh.SampleKind.DELETE:
+                self._alive.discard(agent_id)
+            else:
+                self._alive.add(agent_id)
+        self._wake.set()
+
+    def _on_query(self, query) -> None:
+        loop_id = keys.loop_id_of(self.settings.prefix, str(query.key_expr))
+        wanted = self.latest.keys() if loop_id in (None, "*") else [loop_id]
+        for lid in list(wanted):
+            payload = self.latest.get(lid)
+            if payload is not None and self.core.owns(lid):
+                query.reply(
+                    keys.report(self.settings.prefix, lid), payload, encoding=self._zenoh.Encoding.APPLICATION_JSON
+                )
+
+    # lifecycle ---------------------------------------------------------------------------------
+    def start(self) -> AgentService:
+        p, s = self.settings.prefix, self.session
+        self._declared = [
+            s.liveliness().declare_subscriber(keys.all_agents(p), self._on_agent, history=True),
+            s.liveliness().declare_token(keys.agent_token(p, self.settings.agent_id)),
+            s.declare_subscriber(keys.all_samples(p), self._on_sample),
+            s.declare_queryable(keys.all_reports(p), self._on_query),
+        ]
+        log.info("agent %s listening on %s", self.settings.agent_id, keys.all_samples(p))
+        return self
+
+    def close(self) -> None:
+        for d in reversed(self._declared):
+            d.undeclare()
+        self._declared = []
+
+    def run(self, stop: threading.Event) -> None:
+        while not stop.is_set():
+            worked = self.step()
+            if not worked:
+                self._wake.wait(0.05)
+                self._wake.clear()
+        self.publish_health()
+
+    # one pass of the worker ----------------------------------------------------------------------
+    def step(self) -> bool:
+        with self._alive_lock:
+            alive = set(self._alive)
+        self.core.set_agents(alive)
+        n = 0
+        while self._inbox and n < 20000:
+            key, payload, encoding, arrived = self._inbox.popleft()
+            self.core.ingest(key, payload, encoding, arrived)
+            n += 1
+        due = self.core.due()
+        for i in range(0, len(due), self.settings.max_batch):
+            self._report(due[i : i + self.settings.max_batch])
+        if time.monotonic() - self._last_health >= self.settings.health_every_s:
+            self.publish_health()
+        return bool(n or due)
+
+    def _report(self, due) -> None:
+        windows = [w for w, _ in due]
+        try:
+            reports = self.quantifier.quantify(windows)
+        except StictionError:  # one bad window must not cost the others their reports
+            reports = []
+            for w, _ in due:
+                try:
+                    reports.extend(self.quantifier.quantify([w]))
+                except StictionError as e:
+                    self.core.reject("window_refused", str(e))
+                    reports.append(None)
+        put_kw = {
+            "encoding": self._zenoh.Encoding.APPLICATION_JSON,
+            "congestion_control": self._zenoh.CongestionControl.BLOCK,
+        }
+        arrivals = []
+        for (w, arrived), report in zip(due, reports, strict=True):
+            if report is None:
+                continue
+            payload = report.model_dump_json().encode()
+            self.latest[w.loop_id] = payload
+            self.session.put(keys.report(self.settings.prefix, w.loop_id), payload, **put_kw)
+            arrivals.append(arrived)
+            if self.on_report:
+                self.on_report(report, w)
+        self.core.completed(len(arrivals), arrivals, time.monotonic())
+
+    def health(self) -> AgentHealth:
+        p50, p99 = self.core.latency_percentiles()
+        owned = sum(1 for lid in self.core.loops if self.core.owns(lid))
+        return AgentHealth(
+            agent_id=self.settings.agent_id,
+            uptime_s=time.monotonic() - self._started,
+            agents_alive=list(self.core.agents),
+            loops_seen=len(self.core.loops),
+            loops_owned=owned,
+            samples=self.core.samples,
+            reports=self.core.reports,
+            rejected=dict(self.core.rejected),
+            latency_p50_s=p50,
+            latency_p99_s=p99,
+            pending_loops=self.core.pending(),
+        )
+
+    def publish_health(self) -> None:
+        self._last_health = time.monotonic()
+        self.session.put(
+            keys.agent_health(self.settings.prefix, self.settings.agent_id),
+            self.health().model_dump_json().encode(),
+            encoding=self._zenoh.Encoding.APPLICATION_JSON,
+        )

@@ -1,0 +1,53 @@
+"""A rolling window of one loop's samples: a fixed-size ring, updated batch by batch."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class RollingWindow:
+    """The last ``size`` samples of OP and PV, numbered by the stream's ``seq``.
+
+    ``update`` appends a batch that continues the stream; ``get`` returns the
+    window oldest first; ``snapshot`` is a plain dict for inspection.
+    """
+
+    def __init__(self, size: int, ts_s: float):
+        self.size = size
+        self.ts_s = ts_s
+        self._op = np.zeros(size)
+        self._pv = np.zeros(size)
+        self.count = 0  # samples held, at most size
+        self.next_seq: int | None = None
+        self.t_end_s: float | None = None
+
+    def update(self, seq: int, t0_s: float, op, pv) -> RollingWindow:
+        n = len(op)
+        op, pv = np.asarray(op, float)[-self.size :], np.asarray(pv, float)[-self.size :]
+        m = op.size
+        start = (seq + n - m) % self.size
+        idx = (start + np.arange(m)) % self.size
+        self._op[idx], self._pv[idx] = op, pv
+        self.count = min(self.size, self.count + n)
+        self.next_seq = seq + n
+        self.t_end_s = t0_s + (n - 1) * self.ts_s
+        return self
+
+    def get(self) -> tuple[np.ndarray, np.ndarray]:
+        """OP and PV of the samples held, oldest first."""
+        if self.next_seq is None:
+            return np.empty(0), np.empty(0)
+        idx = (self.next_seq - self.count + np.arange(self.count)) % self.size
+        return self._op[idx], self._pv[idx]
+
+    def snapshot(self) -> dict:
+        op, pv = self.get()
+        return {
+            "size": self.size,
+            "count": self.count,
+            "next_seq": self.next_seq,
+            "ts_s": self.ts_s,
+            "t_end_s": self.t_end_s,
+            "op": op.tolist(),
+            "pv": pv.tolist(),
+        }

@@ -1,0 +1,71 @@
+"""Messages on the Zenoh key space (spec/interfaces.md), besides the report (``schemas.report``)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from schemas.report import SCHEMA_VERSION
+
+MAX_BATCH_SAMPLES = 3600
+"""An hour of 1 s samples: larger batches are refused (split them)."""
+
+
+class SampleBatch(BaseModel):
+    """Consecutive samples of one loop; ``seq`` numbers samples from the loop's start, without gaps."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    loop_id: str = Field(min_length=1, max_length=200)
+    seq: int = Field(ge=0, description="index of the first sample of this batch in the loop's stream")
+    t0_s: float = Field(description="time of the first sample, seconds")
+    ts_s: float = Field(gt=0, le=3600, description="sample time, seconds")
+    op: list[float] = Field(min_length=1, max_length=MAX_BATCH_SAMPLES, description="controller output, percent")
+    pv: list[float] = Field(min_length=1, max_length=MAX_BATCH_SAMPLES, description="process value, percent")
+    sp: list[float] | None = Field(None, max_length=MAX_BATCH_SAMPLES)
+    process: Literal["level"] | None = Field(None, description="'level' for the canonical level loop; else unknown")
+
+    @model_validator(mode="after")
+    def _equal_lengths(self):
+        if len(self.pv) != len(self.op) or (self.sp is not None and len(self.sp) != len(self.op)):
+            raise ValueError(f"op, pv (and sp) must have equal lengths, got {len(self.op)}, {len(self.pv)}")
+        return self
+
+
+class LoopTruth(BaseModel):
+    """What the simulator put into a loop, so that a demo can score the agent."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    loop_id: str
+    fs_pct: float
+    fd_pct: float
+    s_pct: float
+    j_pct: float
+    loop: str
+    valve: str
+    seed: int
+    disturbance: str | None = Field(description="e.g. 'output, 0.1 gaussian'")
+    extensions: dict[str, float]
+
+
+class AgentHealth(BaseModel):
+    """An agent's counters, published periodically."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    agent_id: str
+    uptime_s: float
+    agents_alive: list[str]
+    loops_seen: int
+    loops_owned: int
+    samples: int
+    reports: int
+    rejected: dict[str, int] = Field(description="rejected messages by reason")
+    latency_p50_s: float | None = Field(description="from a window's last sample arriving to its report")
+    latency_p99_s: float | None
+    pending_loops: int

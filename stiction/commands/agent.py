@@ -1,0 +1,53 @@
+"""``stiction agent``: quantify the loops streamed on Zenoh and publish their reports; stop with SIGINT/SIGTERM."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import socket
+from pathlib import Path
+
+from stiction import zenoh_config
+from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
+from stiction.errors import InputError
+
+log = logging.getLogger(__name__)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--models", type=Path, help="directory with the ONNX models and their cards")
+    p.add_argument("--agent-id", default=None, help="unique per agent (default: host-pid)")
+    p.add_argument("--window", type=int, default=1000, help="samples per loop window (default 1000)")
+    p.add_argument("--report-every", type=int, default=60, help="new samples between a loop's reports (default 60)")
+    zenoh_config.add_arguments(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    import zenoh
+
+    from agent.service import AgentService, AgentSettings
+
+    if args.window < 100 or args.report_every < 1:
+        raise InputError("--window must be at least 100 samples and --report-every at least 1")
+    if not args.listen and not args.connect and args.config is None:
+        args.connect = [DEFAULT_ENDPOINT]
+        args.listen = [zenoh_config.free_loopback_endpoint()]
+    agent_id = args.agent_id or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
+    settings = AgentSettings(
+        agent_id=agent_id,
+        prefix=args.prefix,
+        window_samples=args.window,
+        report_every_samples=args.report_every,
+        models_dir=args.models,
+    )
+    log.info("settings: %s", settings)
+    stop = stop_on_signals()
+    with zenoh.open(zenoh_config.from_args(args)) as session:
+        service = AgentService(settings, session).start()
+        try:
+            service.run(stop)
+        finally:
+            service.close()
+    log.info("agent %s stopped: %s", agent_id, service.health().model_dump_json())
+    return 0

@@ -1,0 +1,173 @@
+"""``stiction demo``: simulator, agent and a live table in one process, Zenoh peers on loopback; then a summary."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import threading
+import time
+
+import numpy as np
+
+from stiction import zenoh_config
+from stiction.commands.sim import stop_on_signals
+from stiction.errors import InputError
+
+log = logging.getLogger(__name__)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--loops", type=int, default=40)
+    p.add_argument("--seconds", type=float, default=60.0, help="wall-clock length of the demo (default 60)")
+    p.add_argument("--speed", type=float, default=100.0, help="simulated seconds per second (default 100)")
+    p.add_argument("--report-every", type=int, default=120, help="samples between a loop's reports (default 120)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--rows", type=int, default=16, help="loops shown in the live table")
+    p.add_argument("--models", help="directory with the ONNX models and their cards")
+    zenoh_config.add_arguments(p)
+
+
+def _table(reports, truths, rows: int, elapsed: float, published: int, loops: int) -> str:
+    lines = [
+        f"stiction demo  {elapsed:5.0f} s   {loops} loops   {published} s simulated per loop   "
+        f"{len(reports)} loops reported",
+        f"{'loop':10s} {'true fs/fd %':>14s} {'est fs/fd %':>14s} {'err pp':>7s} {'method':>9s} "
+        f"{'period s':>8s}  status",
+    ]
+    for loop_id in sorted(truths)[:rows]:
+        t = truths[loop_id]
+        r = reports.get(loop_id)
+        true = f"{t.fs_pct:5.1f}/{t.fd_pct:5.1f}"
+        if r is None or r.fs_pct is None:
+            lines.append(f"{loop_id:10s} {true:>14s} {'-':>14s} {'':>7s} {'':>9s} {'':>8s}  waiting for a full window")
+            continue
+        err = (abs(r.fs_pct - t.fs_pct) + abs(r.fd_pct - t.fd_pct)) / 2
+        status = "; ".join(w.split(":")[0] for w in r.warnings if "process not declared" not in w) or "ok"
+        period = f"{r.period_s:8.1f}" if r.period_s else f"{'-':>8s}"
+        lines.append(
+            f"{loop_id:10s} {true:>14s} {r.fs_pct:6.1f}/{r.fd_pct:5.1f}  {err:7.2f} {r.method:>9s} "
+            f"{period}  {status}  ({t.disturbance or 'noise-free'})"
+        )
+    return "\n".join(lines)
+
+
+def summarise(reports, truths, wall_s: float, published: int, health) -> dict:
+    pairs = [(r, truths[i]) for i, r in reports.items() if i in truths and r.fs_pct is not None]
+    err = np.array([(abs(r.fs_pct - t.fs_pct) + abs(r.fd_pct - t.fd_pct)) / 2 for r, t in pairs])
+    thesis = np.array(
+        [
+            (abs(r.thesis.fs_pct - t.fs_pct) + abs(r.thesis.fd_pct - t.fd_pct)) / 2
+            for r, t in pairs
+            if r.thesis.fs_pct is not None
+        ]
+    )
+    by_method = {}
+    for m in ("physical", "learned", "thesis"):
+        e = [x for (r, _), x in zip(pairs, err, strict=True) if r.method == m]
+        if e:
+            by_method[m] = {"loops": len(e), "mae_pp": float(np.mean(e))}
+    return {
+        "loops": len(truths),
+        "loops_reported": len(pairs),
+        "reports": health.reports,
+        "mae_pp": float(err.mean()) if err.size else None,
+        "thesis_chain_mae_pp": float(thesis.mean()) if thesis.size else None,
+        "by_method": by_method,
+        "samples_per_s": health.samples / wall_s,
+        "reports_per_s": health.reports / wall_s,
+        "latency_p50_s": health.latency_p50_s,
+        "latency_p99_s": health.latency_p99_s,
+        "rejected": health.rejected,
+        "simulated_s_per_loop": published,
+        "wall_s": wall_s,
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    import zenoh
+
+    from agent.service import AgentService, AgentSettings
+    from sim.publisher import PublisherSettings
+    from sim.publisher import run as publish
+    from stiction.dashboard import Dashboard
+
+    if args.loops < 1 or args.seconds <= 0 or args.speed <= 0:
+        raise InputError("--loops, --seconds and --speed must be positive")
+    endpoint = (args.listen or [zenoh_config.free_loopback_endpoint()])[0]
+    zenoh_config.from_args(args)  # validates prefix and config flags
+    stop = stop_on_signals()
+    sim_settings = PublisherSettings(
+        prefix=args.prefix, loops=args.loops, seed=args.seed, speed=args.speed, rate_hz=4.0
+    )
+    published = [0]
+    tty = sys.stdout.isatty()
+    print(
+        f"stiction demo: {args.loops} loops at {args.speed:g}x real time for {args.seconds:g} s, "
+        f"Zenoh on {endpoint}; the agent reports once a loop has a full 1000-sample window",
+        flush=True,
+    )
+    with (
+        zenoh.open(zenoh_config.build([endpoint])) as sim_s,
+        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as agent_s,
+        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as dash_s,
+    ):
+        dashboard = Dashboard(dash_s, args.prefix)
+        agent = AgentService(
+            AgentSettings(
+                agent_id="demo-agent",
+                prefix=args.prefix,
+                report_every_samples=args.report_every,
+                models_dir=args.models,
+            ),
+            agent_s,
+        ).start()
+        threads = [
+            threading.Thread(
+                target=publish,
+                args=(sim_settings, sim_s, stop),
+                kwargs={"on_tick": lambda n: published.__setitem__(0, n)},
+                daemon=True,
+            ),
+            threading.Thread(target=agent.run, args=(stop,), daemon=True),
+        ]
+        started = time.monotonic()
+        for t in threads:
+            t.start()
+        time.sleep(0.5)
+        dashboard.fetch_truths()
+        try:
+            while not stop.wait(2.0 if tty else 10.0):
+                elapsed = time.monotonic() - started
+                reports, truths = dashboard.snapshot()
+                text = _table(reports, truths, args.rows, elapsed, published[0], args.loops)
+                print(("\033[2J\033[H" if tty else "\n") + text, flush=True)
+                if elapsed >= args.seconds:
+                    break
+        finally:
+            stop.set()
+            for t in threads:
+                t.join(timeout=10)
+            wall = time.monotonic() - started
+            agent.close()
+            dashboard.close()
+    reports, truths = dashboard.snapshot()
+    s = summarise(reports, truths, wall, published[0], agent.health())
+    print("\nsummary")
+    print(
+        f"  loops {s['loops']}, reported {s['loops_reported']}, reports {s['reports']} "
+        f"({s['reports_per_s']:.1f}/s), samples ingested {s['samples_per_s']:.0f}/s"
+    )
+    if s["mae_pp"] is not None:
+        methods = ", ".join(f"{m} {v['loops']} loops {v['mae_pp']:.2f} pp" for m, v in s["by_method"].items())
+        print(
+            f"  estimated vs true fs/fd: mean absolute error {s['mae_pp']:.2f} pp of 500 lbf ({methods}); "
+            f"thesis chain alone {s['thesis_chain_mae_pp']:.2f} pp"
+        )
+    if s["latency_p50_s"] is not None:
+        print(
+            f"  latency from a window's last sample to its report: p50 {s['latency_p50_s'] * 1e3:.0f} ms, "
+            f"p99 {s['latency_p99_s'] * 1e3:.0f} ms"
+        )
+    print(f"  rejected messages: {s['rejected'] or 'none'}")
+    return 0

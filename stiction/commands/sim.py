@@ -1,0 +1,56 @@
+"""``stiction sim``: stream many simulated, noisy loops over Zenoh until stopped."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import threading
+
+from stiction import zenoh_config
+from stiction.errors import InputError
+
+log = logging.getLogger(__name__)
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--loops", type=int, default=100)
+    p.add_argument("--rate", type=float, default=1.0, help="messages per second per loop (default 1)")
+    p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per second (default 1: real time)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--duration-s", type=float, help="stop after this much simulated time")
+    zenoh_config.add_arguments(p)
+
+
+def stop_on_signals() -> threading.Event:
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+def run(args: argparse.Namespace) -> int:
+    import zenoh
+
+    from sim.publisher import PublisherSettings
+    from sim.publisher import run as publish
+
+    if args.loops < 1 or args.rate <= 0 or args.speed <= 0:
+        raise InputError("--loops, --rate and --speed must be positive")
+    if not args.listen and not args.connect and args.config is None:
+        args.listen = [DEFAULT_ENDPOINT]
+    settings = PublisherSettings(
+        prefix=args.prefix,
+        loops=args.loops,
+        seed=args.seed,
+        speed=args.speed,
+        rate_hz=args.rate,
+        duration_s=args.duration_s,
+    )
+    log.info("settings: %s", settings)
+    stop = stop_on_signals()
+    with zenoh.open(zenoh_config.from_args(args)) as session:
+        published = publish(settings, session, stop)
+    log.info("published %d samples per loop", published)
+    return 0

@@ -1,0 +1,57 @@
+"""A dashboard's view of the key space: one subscription to every report, one to every truth."""
+
+from __future__ import annotations
+
+import threading
+
+from schemas import keys
+from schemas.messages import LoopTruth
+from schemas.report import StictionReport
+
+
+class Dashboard:
+    def __init__(self, session, prefix: str):
+        self.prefix = prefix
+        self.reports: dict[str, StictionReport] = {}
+        self.truths: dict[str, LoopTruth] = {}
+        self.received = 0
+        self.bad = 0
+        self._lock = threading.Lock()
+        self._subs = [
+            session.declare_subscriber(keys.all_reports(prefix), self._on_report),
+            session.declare_subscriber(keys.all_truths(prefix), self._on_truth),
+        ]
+        self._session = session
+
+    def _on_report(self, sample) -> None:
+        try:
+            report = StictionReport.model_validate_json(sample.payload.to_bytes())
+        except ValueError:
+            self.bad += 1
+            return
+        with self._lock:
+            self.reports[report.loop_id] = report
+            self.received += 1
+
+    def _on_truth(self, sample) -> None:
+        try:
+            truth = LoopTruth.model_validate_json(sample.payload.to_bytes())
+        except ValueError:
+            self.bad += 1
+            return
+        with self._lock:
+            self.truths[truth.loop_id] = truth
+
+    def fetch_truths(self) -> None:
+        """Late joiner: ask the simulator for every loop's truth."""
+        for reply in self._session.get(keys.all_truths(self.prefix), timeout=2.0):
+            if reply.ok is not None:
+                self._on_truth(reply.ok)
+
+    def snapshot(self) -> tuple[dict[str, StictionReport], dict[str, LoopTruth]]:
+        with self._lock:
+            return dict(self.reports), dict(self.truths)
+
+    def close(self) -> None:
+        for s in self._subs:
+            s.undeclare()

@@ -1,0 +1,61 @@
+"""Zenoh configuration for every process: a file, then flags, then fixed overrides, in one helper.
+
+Peer mode; multicast scouting off (it reaches beyond loopback); listen on
+loopback unless told otherwise.  ``add_arguments`` gives every command the same flags.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+from pathlib import Path
+
+from schemas import keys
+from stiction.errors import InputError
+
+
+def add_arguments(p: argparse.ArgumentParser, listen_default: bool = True) -> None:
+    p.add_argument("--prefix", default=keys.DEFAULT_PREFIX, help="key space prefix (default %(default)s)")
+    p.add_argument("--listen", action="append", metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:7447 (repeatable)")
+    p.add_argument("--connect", action="append", metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:7447 (repeatable)")
+    p.add_argument("--config", type=Path, help="a full Zenoh JSON5 configuration file; flags override it")
+
+
+def free_loopback_endpoint() -> str:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
+
+
+def build(listen: list[str] | None = None, connect: list[str] | None = None, config_file: Path | None = None):
+    """A ``zenoh.Config``; with neither endpoint given, listen on a free loopback port."""
+    import zenoh
+
+    if config_file is not None:
+        try:
+            cfg = zenoh.Config.from_file(str(config_file))
+        except Exception as e:  # zenoh raises its own error types for unreadable files
+            raise InputError(f"{config_file}: not a Zenoh configuration ({e})") from None
+    else:
+        cfg = zenoh.Config()
+        cfg.insert_json5("mode", '"peer"')
+        cfg.insert_json5("scouting/multicast/enabled", "false")
+        if not listen and not connect:
+            listen = [free_loopback_endpoint()]
+    try:
+        if listen:
+            cfg.insert_json5("listen/endpoints", json.dumps(listen))
+        if connect:
+            cfg.insert_json5("connect/endpoints", json.dumps(connect))
+    except Exception as e:
+        raise InputError(f"bad Zenoh endpoint in {listen or connect}: {e}") from None
+    return cfg
+
+
+def from_args(args: argparse.Namespace):
+    try:
+        keys.check_prefix(args.prefix)
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    return build(args.listen, args.connect, args.config)
