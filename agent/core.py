@@ -110,10 +110,9 @@ class AgentCore:
                 self.reject("sample_time_changed", loop_id)
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
                 state.new_since_report = 0
-            elif batch.seq + len(batch.op) <= w.next_seq:
-                return self.reject("duplicate", f"{loop_id} seq {batch.seq}")
             elif batch.seq < w.next_seq:
-                return self.reject("out_of_order", f"{loop_id} seq {batch.seq} < {w.next_seq}")
+                reason = "duplicate" if w.holds(batch.seq, batch.op, batch.pv) else "out_of_order"
+                return self.reject(reason, f"{loop_id} seq {batch.seq} < {w.next_seq}")
             elif batch.seq > w.next_seq:
                 self.reject("gap", f"{loop_id} seq {batch.seq} > {w.next_seq}: window restarted")
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)

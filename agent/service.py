@@ -35,6 +35,8 @@ class AgentSettings:
     health_every_s: float = 2.0
     max_batch: int = 200
     """Windows quantified together at most (the pipeline batches them)."""
+    max_loops: int = 20000
+    """Loops held at most: a burst of unknown loops beyond it is refused, not stored."""
 
 
 class AgentService:
@@ -51,6 +53,7 @@ class AgentService:
                 prefix=settings.prefix,
                 window_samples=settings.window_samples,
                 report_every_samples=settings.report_every_samples,
+                max_loops=settings.max_loops,
             ),
         )
         self.latest: dict[str, bytes] = {}
@@ -151,6 +154,7 @@ class AgentService:
         for (w, arrived), report in zip(due, reports, strict=True):
             if report is None:
                 continue
+            report = report.model_copy(update={"agent_id": self.settings.agent_id})
             payload = report.model_dump_json().encode()
             self.latest[w.loop_id] = payload
             self.session.put(keys.report(self.settings.prefix, w.loop_id), payload, **put_kw)

@@ -33,6 +33,14 @@ class RollingWindow:
         self.t_end_s = t0_s + (n - 1) * self.ts_s
         return self
 
+    def holds(self, seq: int, op, pv) -> bool:
+        """These samples, at these sequence numbers, are already in the window (a repeated message)."""
+        n = len(op)
+        if self.next_seq is None or seq < self.next_seq - self.count or seq + n > self.next_seq:
+            return False
+        idx = (seq + np.arange(n)) % self.size
+        return bool(np.array_equal(self._op[idx], op) and np.array_equal(self._pv[idx], pv))
+
     def get(self) -> tuple[np.ndarray, np.ndarray]:
         """OP and PV of the samples held, oldest first."""
         if self.next_seq is None:

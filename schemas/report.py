@@ -49,5 +49,6 @@ class StictionReport(BaseModel):
     oscillating: bool = Field(description="a clear oscillation was found (ACF peak above 0.3)")
     warnings: list[str] = Field(default_factory=list)
     model_version: str
+    agent_id: str | None = Field(None, description="the agent that produced the report (None: offline)")
     t_end_s: float | None = Field(None, description="time of the window's last sample")
     n_samples: int

@@ -37,7 +37,10 @@ class TrainSettings:
     ensemble: int = 5
     seed: int = 0
     accuracy_seeds: int = 5
-    thesis_fit: FitSettings = field(default_factory=lambda: FitSettings(epochs=5000, patience=200, learning_rate=1e-2))
+    # full-batch L-BFGS: the thesis trained in MATLAB, whose default trainer is second-order (Levenberg-Marquardt)
+    thesis_fit: FitSettings = field(
+        default_factory=lambda: FitSettings(epochs=400, patience=40, learning_rate=1.0, optimiser="lbfgs")
+    )
     cycle_fit: FitSettings = field(
         default_factory=lambda: FitSettings(epochs=400, patience=30, batch_size=256, learning_rate=2e-3)
     )

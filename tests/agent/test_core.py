@@ -1,0 +1,103 @@
+"""The agent's pure core: ownership, due windows and every rejection reason, without a network."""
+
+import json
+
+import numpy as np
+import pytest
+
+from agent.core import AgentCore, CoreSettings
+
+KEY = "stiction/demo/loop/L1/samples"
+JSON = "application/json"
+
+
+def _payload(seq, n=10, loop_id="L1", **kw):
+    body = {
+        "schema_version": 1,
+        "loop_id": loop_id,
+        "seq": seq,
+        "t0_s": float(seq),
+        "ts_s": 1.0,
+        "op": list(np.arange(seq, seq + n, dtype=float)),
+        "pv": [0.0] * n,
+    } | kw
+    return json.dumps(body).encode()
+
+
+def _core(**kw):
+    return AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=20, **kw))
+
+
+def test_loops_are_shared_between_agents_exactly_once_and_taken_over():
+    a, b = AgentCore("a"), AgentCore("b")
+    for core in (a, b):
+        core.set_agents({"a", "b"})
+    loops = [f"L{i}" for i in range(400)]
+    owners = [(a.owns(x), b.owns(x)) for x in loops]
+    assert all(oa != ob for oa, ob in owners)
+    assert 150 < sum(oa for oa, _ in owners) < 250
+    a.set_agents({"a"})  # b's token disappeared
+    assert all(a.owns(x) for x in loops)
+
+
+def test_window_due_once_full_and_then_every_report_interval():
+    core = _core()
+    for seq in range(0, 90, 10):
+        core.ingest(KEY, _payload(seq), JSON, float(seq))
+    assert core.due() == []
+    core.ingest(KEY, _payload(90), JSON, 90.0)
+    due = core.due()
+    assert len(due) == 1 and due[0][0].op[-1] == 99 and due[0][1] == 90.0
+    core.ingest(KEY, _payload(100), JSON, 100.0)
+    assert core.due() == []
+    core.ingest(KEY, _payload(110), JSON, 110.0)
+    assert len(core.due()) == 1
+
+
+@pytest.mark.parametrize(
+    ("payload", "encoding", "reason"),
+    [
+        (b'{"schema_version": 1, "loop_id": ', JSON, "malformed_json"),
+        (_payload(0, schema_version=2), JSON, "wrong_schema_version"),
+        (json.dumps({"schema_version": 1, "loop_id": "L1", "seq": 0}).encode(), JSON, "missing_field"),
+        (_payload(0).replace(b"0.0]", b"NaN]"), JSON, "not_finite"),
+        (_payload(0).replace(b"0.0]", b"Infinity]"), JSON, "not_finite"),
+        (_payload(0, n=4000), JSON, "oversized_batch"),
+        (_payload(0), "text/plain", "wrong_encoding"),
+        (_payload(0, loop_id="L2"), JSON, "loop_id_mismatch"),
+        (b"x" * 600_000, JSON, "oversized_payload"),
+    ],
+)
+def test_bad_messages_are_counted_by_reason(payload, encoding, reason):
+    core = _core()
+    core.ingest(KEY, payload, encoding, 0.0)
+    assert dict(core.rejected) == {reason: 1}
+    assert core.samples == 0
+
+
+def test_duplicate_out_of_order_and_gap():
+    core = _core()
+    core.ingest(KEY, _payload(0), JSON, 0.0)
+    core.ingest(KEY, _payload(10), JSON, 0.0)
+    core.ingest(KEY, _payload(10), JSON, 0.0)  # the same samples again: duplicate
+    core.ingest(KEY, _payload(5, op=[7.0] * 10), JSON, 0.0)  # other samples for seq 5..14: out of order
+    core.ingest(KEY, _payload(40), JSON, 0.0)  # 20 samples missing: the window restarts there
+    assert dict(core.rejected) == {"duplicate": 1, "out_of_order": 1, "gap": 1}
+    assert core.loops["L1"].window.count == 10 and core.samples == 30
+
+
+def test_burst_of_unknown_loops_is_capped():
+    core = _core(max_loops=5)
+    for i in range(8):
+        core.ingest(f"stiction/demo/loop/X{i}/samples", _payload(0, loop_id=f"X{i}"), JSON, 0.0)
+    assert len(core.loops) == 5 and core.rejected["too_many_loops"] == 3
+
+
+def test_other_agents_loops_are_not_even_parsed():
+    core = _core(replicas=1)
+    core.set_agents({"a1", "zz"})
+    mine = [f"L{i}" for i in range(50) if core.owns(f"L{i}")]
+    theirs = [f"L{i}" for i in range(50) if not core.owns(f"L{i}")]
+    for lid in theirs[:3]:
+        core.ingest(f"stiction/demo/loop/{lid}/samples", b"not json at all", JSON, 0.0)
+    assert not core.rejected and mine

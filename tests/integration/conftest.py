@@ -1,0 +1,21 @@
+import threading
+import time
+
+import pytest
+
+from agent.pipeline import Quantifier
+
+
+def wait_until(condition, timeout_s: float = 30.0, what: str = "condition") -> None:
+    """Wait on a condition with a timeout (an Event's wait paces the polling; no bare sleeps)."""
+    tick = threading.Event()
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        tick.wait(0.05)
+
+
+@pytest.fixture(scope="session")
+def quantifier():
+    return Quantifier()

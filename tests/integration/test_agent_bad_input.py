@@ -1,0 +1,147 @@
+"""Bad input over real Zenoh: each message is refused with a counted reason, the agent keeps going,
+and the good loops' reports are exactly what the offline pipeline gives for the same windows."""
+
+import json
+import threading
+
+import numpy as np
+import pytest
+import zenoh
+
+from agent.pipeline import Window
+from agent.service import AgentService, AgentSettings
+from schemas import keys
+from schemas.report import StictionReport
+from sim.grid import case_specs
+from sim.publisher import batch_payload
+from sim.stream import LoopStream
+from stiction import zenoh_config
+from tests.integration.conftest import wait_until
+
+PREFIX = "test/bad"
+WINDOW, EVERY, BATCH = 200, 100, 50
+GOOD = ["C2", "C4", "N5"]
+
+
+@pytest.fixture
+def stack(quantifier):
+    endpoint = zenoh_config.free_loopback_endpoint()
+    with (
+        zenoh.open(zenoh_config.build([endpoint])) as pub,
+        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as s,
+    ):
+        settings = AgentSettings(
+            agent_id="t1",
+            prefix=PREFIX,
+            window_samples=WINDOW,
+            report_every_samples=EVERY,
+            health_every_s=0.2,
+            max_loops=len(GOOD) + 6,
+        )
+        agent = AgentService(settings, s, quantifier).start()
+        stop = threading.Event()
+        thread = threading.Thread(target=agent.run, args=(stop,), daemon=True)
+        thread.start()
+        reports: dict[str, list[StictionReport]] = {}
+        health: list[dict] = []
+        sub_r = pub.declare_subscriber(
+            keys.all_reports(PREFIX),
+            lambda smp: reports.setdefault(keys.loop_id_of(PREFIX, str(smp.key_expr)), []).append(
+                StictionReport.model_validate_json(smp.payload.to_bytes())
+            ),
+        )
+        sub_h = pub.declare_subscriber(
+            f"{PREFIX}/agent/*/health", lambda smp: health.append(json.loads(smp.payload.to_bytes()))
+        )
+        wait_until(lambda: "t1" in agent._alive, 10, "the agent's own liveliness token")
+        yield pub, agent, reports, health
+        stop.set()
+        thread.join(10)
+        sub_r.undeclare()
+        sub_h.undeclare()
+        agent.close()
+
+
+def _put(session, loop_id, payload, encoding=zenoh.Encoding.APPLICATION_JSON):
+    session.put(
+        keys.samples(PREFIX, loop_id), payload, encoding=encoding, congestion_control=zenoh.CongestionControl.BLOCK
+    )
+
+
+def test_bad_messages_are_counted_and_good_loops_unaffected(stack, quantifier):
+    pub, agent, reports, health = stack
+    specs = case_specs(seed=3)
+    stream = LoopStream([specs[g] for g in GOOD])
+    stream.next(1000)
+    sent_op, sent_pv = [[] for _ in GOOD], [[] for _ in GOOD]
+    good = lambda seq, j, chunk: batch_payload(
+        GOOD[j],
+        seq,
+        float(seq),
+        1.0,
+        chunk.op[j],
+        chunk.pv[j],  # noqa: E731
+        chunk.sp[j],
+        "level",
+    )
+    bad_sent = False
+    for _ in range((WINDOW + EVERY) // BATCH):
+        chunk = stream.next(BATCH)
+        for j in range(len(GOOD)):
+            _put(pub, GOOD[j], good(chunk.seq, j, chunk))
+            sent_op[j].append(chunk.op[j])
+            sent_pv[j].append(chunk.pv[j])
+        if not bad_sent:  # every kind of bad input, once, between good batches
+            bad_sent = True
+            ok = json.loads(good(chunk.seq, 0, chunk))
+            lid = GOOD[0]
+            _put(pub, "junk", b'{"schema_version": 1, "loop_id": ')
+            _put(pub, "junk", json.dumps(ok | {"loop_id": "junk", "schema_version": 9}).encode())
+            _put(pub, "junk", json.dumps({"schema_version": 1, "loop_id": "junk", "seq": 0}).encode())
+            _put(pub, "junk", json.dumps(ok | {"loop_id": "junk"}).replace(str(ok["op"][0]), "NaN", 1).encode())
+            _put(pub, "junk", json.dumps(ok | {"loop_id": "junk", "op": [1e400], "pv": [0.0]}).encode())
+            _put(pub, "junk", json.dumps(ok | {"loop_id": "junk", "op": [0.0] * 5000, "pv": [0.0] * 5000}).encode())
+            _put(pub, "junk", json.dumps(ok | {"loop_id": "junk"}).encode(), zenoh.Encoding.TEXT_PLAIN)
+            _put(pub, lid, good(chunk.seq, 0, chunk))  # the same batch again
+            _put(pub, lid, json.dumps(ok | {"op": [9.0] * BATCH}).encode())  # other data for old samples
+            for i in range(8):  # a burst of unknown loops beyond max_loops
+                _put(pub, f"burst{i}", json.dumps(ok | {"loop_id": f"burst{i}"}).encode())
+            _put(pub, "burst0", json.dumps(ok | {"loop_id": "burst0", "seq": ok["seq"] + 500}).encode())
+
+    expected = {
+        "malformed_json": 1,
+        "wrong_schema_version": 1,
+        "missing_field": 1,
+        "not_finite": 2,
+        "oversized_batch": 1,
+        "wrong_encoding": 1,
+        "duplicate": 1,
+        "out_of_order": 1,
+        "too_many_loops": 2,
+        "gap": 1,
+    }
+    wait_until(lambda: all(len(reports.get(g, [])) >= 2 for g in GOOD), 60, "two reports of every good loop")
+    wait_until(lambda: health and health[-1]["rejected"] == expected, 10, f"rejections {expected}")
+    for j, g in enumerate(GOOD):
+        op, pv = np.concatenate(sent_op[j]), np.concatenate(sent_pv[j])
+        last = reports[g][-1]
+        window = Window(g, op[-WINDOW:], pv[-WINDOW:], 1.0, last.t_end_s, "level")
+        offline = quantifier.quantify([window])[0]
+        assert last.fs_pct == offline.fs_pct and last.fd_pct == offline.fd_pct and last.agent_id == "t1"
+    assert "junk" not in reports and not any(k.startswith("burst") for k in reports)
+
+
+def test_get_answers_the_latest_report(stack):
+    pub, agent, reports, _ = stack
+    stream = LoopStream([case_specs()["C6"]])
+    for _ in range(WINDOW // BATCH):
+        chunk = stream.next(BATCH)
+        _put(
+            pub,
+            "C6",
+            batch_payload("C6", chunk.seq, float(chunk.seq), 1.0, chunk.op[0], chunk.pv[0], chunk.sp[0], "level"),
+        )
+    wait_until(lambda: reports.get("C6"), 30, "a report of C6")
+    replies = [r.ok for r in pub.get(keys.report(PREFIX, "C6"), timeout=5) if r.ok is not None]
+    assert len(replies) == 1
+    assert StictionReport.model_validate_json(replies[0].payload.to_bytes()) == reports["C6"][-1]
