@@ -74,16 +74,10 @@ def test_bad_messages_are_counted_and_good_loops_unaffected(stack, quantifier):
     stream = LoopStream([specs[g] for g in GOOD])
     stream.next(1000)
     sent_op, sent_pv = [[] for _ in GOOD], [[] for _ in GOOD]
-    good = lambda seq, j, chunk: batch_payload(
-        GOOD[j],
-        seq,
-        float(seq),
-        1.0,
-        chunk.op[j],
-        chunk.pv[j],  # noqa: E731
-        chunk.sp[j],
-        "level",
-    )
+
+    def good(seq, j, chunk):
+        return batch_payload(GOOD[j], seq, float(seq), 1.0, chunk.op[j], chunk.pv[j], chunk.sp[j], "level")
+
     bad_sent = False
     for _ in range((WINDOW + EVERY) // BATCH):
         chunk = stream.next(BATCH)
