@@ -1,0 +1,100 @@
+"""Two agent processes share the loops; when one dies the other reports its loops (Zenoh liveliness).
+
+Everything runs as the user would: ``stiction sim`` and two ``stiction agent`` processes on
+loopback, and a plain Zenoh subscriber on ``{prefix}/loop/*/report``.
+"""
+
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import zenoh
+
+from schemas import keys
+from schemas.report import StictionReport
+from stiction import zenoh_config
+from tests.integration.conftest import wait_until
+
+PREFIX = "test/scale"
+LOOPS = 12
+
+
+def _start(*argv):
+    return subprocess.Popen(
+        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+
+
+def test_two_agents_share_loops_and_take_over(tmp_path):
+    endpoint = zenoh_config.free_loopback_endpoint()
+    common = ["--prefix", PREFIX]
+    agent_args = ["--window", "200", "--report-every", "50", "--connect", endpoint, *common]
+    procs = {}
+    seen: dict[str, list[tuple[str, float]]] = {}
+    lock = threading.Lock()
+
+    def on_report(sample):
+        r = StictionReport.model_validate_json(sample.payload.to_bytes())
+        with lock:
+            seen.setdefault(r.loop_id, []).append((r.agent_id, time.monotonic()))
+
+    with zenoh.open(zenoh_config.build([endpoint])) as session:
+        sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
+        try:
+            for name in ("agent-a", "agent-b"):
+                procs[name] = _start(
+                    "agent", "--agent-id", name, "--listen", zenoh_config.free_loopback_endpoint(), *agent_args
+                )
+
+            def alive():
+                return {
+                    str(r.ok.key_expr)
+                    for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)
+                    if r.ok is not None
+                }
+
+            wait_until(lambda: alive() == {keys.agent_token(PREFIX, a) for a in procs}, 60, "both agents' tokens")
+            procs["sim"] = _start(
+                "sim",
+                "--loops",
+                str(LOOPS),
+                "--speed",
+                "200",
+                "--rate",
+                "4",
+                "--connect",
+                endpoint,
+                "--listen",
+                zenoh_config.free_loopback_endpoint(),
+                *common,
+            )
+            wait_until(
+                lambda: len(seen) == LOOPS and all(len(v) >= 2 for v in seen.values()), 90, "two reports of every loop"
+            )
+            with lock:
+                owners = {loop: {a for a, _ in v} for loop, v in seen.items()}
+            assert all(len(o) == 1 for o in owners.values()), owners
+            of_a = [loop for loop, o in owners.items() if o == {"agent-a"}]
+            assert 0 < len(of_a) < LOOPS  # both agents have work
+
+            procs["agent-a"].kill()  # no goodbye: only its liveliness token vanishes
+            killed = time.monotonic()
+            wait_until(
+                lambda: all(any(a == "agent-b" and t > killed for a, t in seen[loop]) for loop in of_a),
+                60,
+                "agent-b to report agent-a's loops",
+            )
+            assert not any(a == "agent-a" and t > killed + 1.0 for v in seen.values() for a, t in v)
+
+            for name in ("agent-b", "sim"):
+                procs[name].send_signal(signal.SIGTERM)
+            for name in ("agent-b", "sim"):
+                assert procs[name].wait(timeout=20) == 0, procs[name].stderr.read()
+        finally:
+            sub.undeclare()
+            for p in procs.values():
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
