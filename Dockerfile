@@ -1,0 +1,12 @@
+# One image for the simulator, the agent and the rerun web viewer (the router uses the official Zenoh image).
+FROM python:3.11-slim
+WORKDIR /app
+COPY pyproject.toml README.md ./
+COPY sim sim
+COPY agent agent
+COPY schemas schemas
+COPY stiction stiction
+COPY trainer trainer
+COPY bench bench
+RUN pip install --no-cache-dir '.[viewer]' && rerun analytics disable || true
+ENTRYPOINT []
