@@ -60,6 +60,15 @@ class Window:
             raise InputError(f"loop {self.loop_id}: process {self.process!r} unknown, expected 'level' or none")
 
 
+@dataclass(frozen=True)
+class Details:
+    """What the pipeline saw in a window, for viewers and plots."""
+
+    curve: np.ndarray  # [M, 2] the INLPCA curve, (op, pv), closed
+    denoised: np.ndarray  # [N, 2] each sample's projection onto the curve
+    rebuilt_op: np.ndarray  # [100] the thesis' rebuilt OP(t)
+
+
 def _opt(x) -> float | None:
     x = float(x)
     return x if math.isfinite(x) else None
@@ -74,21 +83,29 @@ class Quantifier:
 
     def quantify(self, windows: Sequence[Window], denoise: bool | None = None) -> list[StictionReport]:
         """Reports in the order of ``windows``; windows of equal length and sample time are batched."""
+        return [r for r, _ in self.quantify_with_details(windows, denoise)]
+
+    def quantify_with_details(
+        self, windows: Sequence[Window], denoise: bool | None = None
+    ) -> list[tuple[StictionReport, Details]]:
+        """As ``quantify``, with what the pipeline saw in each window."""
         for w in windows:
             w.validate()
-        reports: list[StictionReport | None] = [None] * len(windows)
+        out: list[tuple[StictionReport, Details] | None] = [None] * len(windows)
         groups: dict[tuple[int, float], list[int]] = {}
         for i, w in enumerate(windows):
             groups.setdefault((len(w.op), float(w.ts_s)), []).append(i)
         for (_, ts_s), idx in groups.items():
             op = np.stack([np.asarray(windows[i].op, float) for i in idx])
             pv = np.stack([np.asarray(windows[i].pv, float) for i in idx])
-            for j, report in zip(idx, self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise), strict=True):
-                reports[j] = report
-        return reports
+            for j, result in zip(idx, self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise), strict=True):
+                out[j] = result
+        return out
 
-    def _batch(self, op, pv, ts_s, windows, denoise) -> list[StictionReport]:
+    def _batch(self, op, pv, ts_s, windows, denoise) -> list[tuple[StictionReport, Details]]:
         a = analyse(op, pv, ts_s, denoise=denoise)
+        angles = np.linspace(-np.pi, np.pi, 129)  # closed: the last point repeats the first
+        curves = a.fit.curve(np.broadcast_to(angles, (op.shape[0], angles.size)))
         n = op.shape[0]
         thesis_in = a.thesis_input
         thesis_ok = np.all(np.isfinite(thesis_in), axis=1)
@@ -167,4 +184,5 @@ class Quantifier:
                     n_samples=int(n_samples),
                 )
             )
-        return reports
+        details = [Details(curves[i], a.fit.denoised[i], a.thesis_input[i]) for i in range(len(windows))]
+        return list(zip(reports, details, strict=True))

@@ -33,7 +33,7 @@ DEFAULT_MODELS_DIR = Path(__file__).resolve().parent.parent / "agent" / "models"
 class TrainSettings:
     models_dir: Path = DEFAULT_MODELS_DIR
     realisations: int = 3
-    noisy_variants: int = 2
+    noisy_variants: int = 4
     ensemble: int = 5
     seed: int = 0
     accuracy_seeds: int = 5

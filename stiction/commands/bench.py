@@ -15,6 +15,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--reference-loops", type=int, default=3, help="grid points run through the slow reference")
     s.add_argument("--repeats", type=int, default=3, help="grid timings; the median is reported")
     s.add_argument("--json", action="store_true")
+    t = sub.add_parser("throughput", help="replay publisher and agent processes on loopback: rates, latency, memory")
+    t.add_argument("--loops", type=int, default=1000)
+    t.add_argument("--seconds", type=float, default=60.0, help="length of the live phase, wall clock")
+    t.add_argument("--speed", type=float, default=1.0, help="samples per loop per second (1 = a plant at 1 Hz)")
+    t.add_argument("--agents", type=int, default=1)
+    t.add_argument("--report-every", type=int, default=60, help="samples between a loop's reports")
+    t.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
     a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
@@ -50,6 +57,8 @@ def run(args: argparse.Namespace) -> int:
             )
     elif args.bench == "accuracy":
         _accuracy(args)
+    elif args.bench == "throughput":
+        _throughput(args)
     return 0
 
 
@@ -88,4 +97,30 @@ def _accuracy(args) -> None:
     print(
         f"thesis MLP on its own 1275 training patterns {floor['training_realisation']:.2f} pp, on fresh "
         f"realisations of the same grid points {floor['fresh_realisation']:.2f} pp (the chaos floor)"
+    )
+
+
+def _throughput(args) -> None:
+    from bench.throughput import run_throughput
+
+    f = run_throughput(args.loops, args.seconds, args.speed, report_every=args.report_every, agents=args.agents)
+    f |= {"host": _machine()}
+    if args.json:
+        print(json.dumps(f))
+        return
+    lat = (
+        f"p50 {f['latency_p50_s'] * 1e3:.0f} ms, p99 {f['latency_p99_s'] * 1e3:.0f} ms"
+        if f["latency_p50_s"] is not None
+        else "no reports"
+    )
+    print(f"{f['loops']} loops at {f['speed']:g} Hz, {f['agents']} agent(s), {f['seconds']:g} s")
+    print(
+        f"  samples/s ingested {f['samples_per_s']:.0f}   reports/s {f['reports_per_s']:.1f} "
+        f"({f['reports']} of {f['reports_expected']} expected)"
+    )
+    print(f"  latency last sample -> report: {lat}")
+    print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
+    print(
+        f"  agent CPU {', '.join(f'{c:.0%}' for c in f['agent_cpu_share'])} of a core, "
+        f"peak RSS {f['agent_peak_rss_mb']:.0f} MB"
     )

@@ -12,7 +12,7 @@ from stiction.errors import StictionError
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--models", type=Path, help="output directory (default: the agent's committed models)")
     p.add_argument("--realisations", type=int, default=3, help="draws of the limit cycle per grid point")
-    p.add_argument("--noisy-variants", type=int, default=2, help="extra runs of the grid with random disturbances")
+    p.add_argument("--noisy-variants", type=int, default=4, help="extra runs of the grid with random disturbances")
     p.add_argument("--ensemble", type=int, default=5, help="members of the cycle ensemble")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print the summary as JSON")

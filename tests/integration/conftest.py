@@ -12,7 +12,7 @@ def wait_until(condition, timeout_s: float = 30.0, what: str = "condition") -> N
     deadline = time.monotonic() + timeout_s
     while not condition():
         if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what() if callable(what) else what}")
         tick.wait(0.05)
 
 

@@ -19,7 +19,7 @@ from stiction import zenoh_config
 from tests.integration.conftest import wait_until
 
 PREFIX = "test/bad"
-WINDOW, EVERY, BATCH = 200, 100, 50
+WINDOW, EVERY, BATCH = 200, 50, 50  # every batch after the first full window makes a loop due
 GOOD = ["C2", "C4", "N5"]
 
 
@@ -114,7 +114,12 @@ def test_bad_messages_are_counted_and_good_loops_unaffected(stack, quantifier):
         "too_many_loops": 2,
         "gap": 1,
     }
-    wait_until(lambda: all(len(reports.get(g, [])) >= 2 for g in GOOD), 60, "two reports of every good loop")
+    last_t = float(chunk.t0_s + BATCH - 1)
+    wait_until(
+        lambda: all(reports.get(g) and reports[g][-1].t_end_s == last_t for g in GOOD),
+        60,
+        lambda: f"a report of every good loop's last window, have { {k: len(v) for k, v in reports.items()} }",
+    )
     wait_until(lambda: health and health[-1]["rejected"] == expected, 10, f"rejections {expected}")
     for j, g in enumerate(GOOD):
         op, pv = np.concatenate(sent_op[j]), np.concatenate(sent_pv[j])

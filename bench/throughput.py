@@ -1,0 +1,183 @@
+"""``stiction bench throughput``: a replay publisher and agent processes on loopback, at plant scale.
+
+The loops are simulated before the clock starts (so only the agent's cost is measured),
+each agent's window is filled in one burst, then every loop gets ``speed`` samples a
+second in one message each, for ``seconds``.  Latency is measured outside the agent:
+from publishing a window's last sample to receiving its report.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import zenoh
+
+from schemas import keys
+from sim.publisher import batch_payload, loop_specs
+from sim.stream import LoopStream
+from stiction import zenoh_config
+
+PREFIX = "bench/throughput"
+
+
+def _proc_stats(pid: int) -> tuple[float, float]:
+    """(CPU seconds, peak RSS in MB) of a process from /proc."""
+    stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    cpu_s = (int(stat[11]) + int(stat[12])) / os.sysconf("SC_CLK_TCK")
+    hwm = next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines() if line.startswith("VmHWM"))
+    return cpu_s, int(hwm.split()[1]) / 1024
+
+
+def run_throughput(
+    loops: int = 1000,
+    seconds: float = 60.0,
+    speed: float = 1.0,
+    window: int = 1000,
+    report_every: int = 60,
+    agents: int = 1,
+) -> dict:
+    n_live = int(seconds * speed)
+    specs = list(loop_specs(loops, seed=7).values())
+    ids = [f"b{i:05d}" for i in range(loops)]
+    stream = LoopStream(specs)
+    stream.next(1000)
+    head = stream.next(window)
+    live = stream.next(n_live)
+    endpoint = zenoh_config.free_loopback_endpoint()
+    received: list[tuple[str, float, float]] = []  # loop, t_end_s, arrival
+    lock = threading.Lock()
+
+    def on_report(sample):
+        r = json.loads(sample.payload.to_bytes())
+        with lock:
+            received.append((r["loop_id"], r["t_end_s"], time.monotonic()))
+
+    health: dict[str, dict] = {}
+    procs = []
+    with zenoh.open(zenoh_config.build([endpoint])) as session:
+        sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
+        hsub = session.declare_subscriber(
+            f"{PREFIX}/agent/*/health", lambda s: health.__setitem__(str(s.key_expr), json.loads(s.payload.to_bytes()))
+        )
+        for a in range(agents):
+            procs.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "stiction.cli",
+                        "agent",
+                        "--agent-id",
+                        f"bench-{a}",
+                        "--prefix",
+                        PREFIX,
+                        "--connect",
+                        endpoint,
+                        "--listen",
+                        zenoh_config.free_loopback_endpoint(),
+                        "--window",
+                        str(window),
+                        "--report-every",
+                        str(report_every),
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.PIPE,
+                    text=True,
+                )
+            )
+        tick = threading.Event()
+        deadline = time.monotonic() + 60
+        while (
+            len(
+                {
+                    r.ok.key_expr
+                    for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)
+                    if r.ok is not None
+                }
+            )
+            < agents
+        ):
+            if time.monotonic() > deadline:
+                raise RuntimeError("agents did not come up")
+            tick.wait(0.2)
+        put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
+        pubs = [session.declare_publisher(keys.samples(PREFIX, i), **put) for i in ids]
+        ts = stream.ts_s
+        for j, pub in enumerate(pubs):  # fill every window in one burst
+            pub.put(batch_payload(ids[j], head.seq, head.t0_s, ts, head.op[j], head.pv[j], head.sp[j], "level"))
+        sent_at = np.zeros(n_live)
+        started = time.monotonic()
+        cpu0 = [_proc_stats(p.pid)[0] for p in procs]
+        per_second = max(int(speed), 1)
+        for k in range(0, n_live, per_second):
+            due = started + k / speed
+            wait = due - time.monotonic()
+            if wait > 0:
+                tick.wait(wait)
+            sl = slice(k, min(k + per_second, n_live))
+            for j, pub in enumerate(pubs):
+                pub.put(
+                    batch_payload(
+                        ids[j],
+                        live.seq + k,
+                        live.t0_s + k * ts,
+                        ts,
+                        live.op[j, sl],
+                        live.pv[j, sl],
+                        live.sp[j, sl],
+                        "level",
+                    )
+                )
+            sent_at[sl] = time.monotonic()
+        publish_s = time.monotonic() - started
+        tick.wait(3.0)  # let the last windows report
+        wall = time.monotonic() - started
+        stats = [_proc_stats(p.pid) for p in procs]
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=20)
+        sub.undeclare()
+        hsub.undeclare()
+    with lock:
+        rows = [r for r in received if r[1] is not None and r[1] >= live.t0_s]
+    lat = np.array(
+        [
+            arr - sent_at[int(round((t_end - live.t0_s) / ts))]
+            for _, t_end, arr in rows
+            if 0 <= int(round((t_end - live.t0_s) / ts)) < n_live
+        ]
+    )
+    samples_agents = sum(h["samples"] for h in health.values())
+    rejected = {}
+    for h in health.values():
+        for k_, v in h["rejected"].items():
+            rejected[k_] = rejected.get(k_, 0) + v
+    published = loops * (window + n_live)
+    expected_reports = loops * (n_live // report_every)
+    return {
+        "loops": loops,
+        "agents": agents,
+        "speed": speed,
+        "seconds": seconds,
+        "publish_s": publish_s,
+        "samples_per_s": loops * n_live / publish_s,
+        "reports_per_s": len(rows) / wall,
+        "reports": len(rows),
+        "reports_expected": expected_reports,
+        "latency_p50_s": float(np.percentile(lat, 50)) if lat.size else None,
+        "latency_p99_s": float(np.percentile(lat, 99)) if lat.size else None,
+        "samples_published": published,
+        "samples_ingested": samples_agents,
+        "samples_lost": published - samples_agents if health else None,
+        "rejected": rejected,
+        "agent_cpu_share": [(s[0] - c) / wall for s, c in zip(stats, cpu0, strict=True)],
+        "agent_peak_rss_mb": max(s[1] for s in stats),
+    }
