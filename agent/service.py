@@ -9,6 +9,7 @@ with it which loops are this agent's.
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 import time
@@ -40,7 +41,7 @@ class AgentSettings:
 
 
 class AgentService:
-    def __init__(self, settings: AgentSettings, session, quantifier: Quantifier | None = None):
+    def __init__(self, settings: AgentSettings, session, quantifier: Quantifier | None = None, sink=None):
         import zenoh
 
         self._zenoh = zenoh
@@ -64,7 +65,9 @@ class AgentService:
         self._started = time.monotonic()
         self._last_health = 0.0
         self._declared: list = []
-        self.on_report = None  # optional hook(report) for in-process consumers (demo, viewer)
+        self.sink = sink  # optional viewer: log_report(report, window, details, truth)
+        self.truths: dict[str, tuple[float, float]] = {}
+        self.sink_errors = 0
 
     # zenoh callbacks: keep them tiny ------------------------------------------------------------
     def _on_sample(self, sample) -> None:
@@ -81,6 +84,13 @@ class AgentService:
             else:
                 self._alive.add(agent_id)
         self._wake.set()
+
+    def _on_truth(self, sample) -> None:
+        try:
+            truth = json.loads(sample.payload.to_bytes())
+            self.truths[truth["loop_id"]] = (float(truth["fs_pct"]), float(truth["fd_pct"]))
+        except (ValueError, KeyError, TypeError):
+            return
 
     def _on_query(self, query) -> None:
         loop_id = keys.loop_id_of(self.settings.prefix, str(query.key_expr))
@@ -101,6 +111,8 @@ class AgentService:
             s.declare_subscriber(keys.all_samples(p), self._on_sample),
             s.declare_queryable(keys.all_reports(p), self._on_query),
         ]
+        if self.sink is not None:  # the viewer shows the truth where the simulator publishes it
+            self._declared.append(s.declare_subscriber(keys.all_truths(p), self._on_truth))
         log.info("agent %s listening on %s", self.settings.agent_id, keys.all_samples(p))
         return self
 
@@ -134,24 +146,29 @@ class AgentService:
             self.publish_health()
         return bool(n or due)
 
+    def _quantify(self, windows):
+        if self.sink is None:
+            return [(r, None) for r in self.quantifier.quantify(windows)]
+        return self.quantifier.quantify_with_details(windows)
+
     def _report(self, due) -> None:
         windows = [w for w, _ in due]
         try:
-            reports = self.quantifier.quantify(windows)
+            results = self._quantify(windows)
         except StictionError:  # one bad window must not cost the others their reports
-            reports = []
-            for w, _ in due:
+            results = []
+            for w in windows:
                 try:
-                    reports.extend(self.quantifier.quantify([w]))
+                    results.extend(self._quantify([w]))
                 except StictionError as e:
                     self.core.reject("window_refused", str(e))
-                    reports.append(None)
+                    results.append((None, None))
         put_kw = {
             "encoding": self._zenoh.Encoding.APPLICATION_JSON,
             "congestion_control": self._zenoh.CongestionControl.BLOCK,
         }
         arrivals = []
-        for (w, arrived), report in zip(due, reports, strict=True):
+        for (w, arrived), (report, details) in zip(due, results, strict=True):
             if report is None:
                 continue
             report = report.model_copy(update={"agent_id": self.settings.agent_id})
@@ -159,8 +176,13 @@ class AgentService:
             self.latest[w.loop_id] = payload
             self.session.put(keys.report(self.settings.prefix, w.loop_id), payload, **put_kw)
             arrivals.append(arrived)
-            if self.on_report:
-                self.on_report(report, w)
+            if self.sink is not None:
+                try:
+                    self.sink.log_report(report, w, details, self.truths.get(w.loop_id))
+                except Exception:  # a viewer problem must never stop the reports
+                    self.sink_errors += 1
+                    if self.sink_errors == 1:
+                        log.exception("rerun sink failed; reports go on without it")
         self.core.completed(len(arrivals), arrivals, time.monotonic())
 
     def health(self) -> AgentHealth:

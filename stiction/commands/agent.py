@@ -20,7 +20,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--agent-id", default=None, help="unique per agent (default: host-pid)")
     p.add_argument("--window", type=int, default=1000, help="samples per loop window (default 1000)")
     p.add_argument("--report-every", type=int, default=60, help="new samples between a loop's reports (default 60)")
+    p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")
     zenoh_config.add_arguments(p)
+
+
+def open_sink(mode: str | None):
+    """The rerun sink for ``--rerun MODE``, or None; a bad mode is a one-line error."""
+    if not mode:
+        return None
+    if not (mode in ("spawn", "serve") or (mode.startswith("save:") and len(mode) > 5)):
+        raise InputError(f"--rerun {mode!r}: expected save:PATH, spawn or serve")
+    try:
+        from agent.viewer import RerunSink
+    except ImportError:
+        raise InputError("--rerun needs the viewer extra: pip install -e '.[viewer]'") from None
+    sink = RerunSink(mode)
+    if mode == "serve":
+        print(f"rerun web viewer: http://127.0.0.1:9090 (data from {sink.url})", flush=True)
+    return sink
 
 
 def run(args: argparse.Namespace) -> int:
@@ -43,11 +60,14 @@ def run(args: argparse.Namespace) -> int:
     )
     log.info("settings: %s", settings)
     stop = stop_on_signals()
+    sink = open_sink(args.rerun)
     with zenoh.open(zenoh_config.from_args(args)) as session:
-        service = AgentService(settings, session).start()
+        service = AgentService(settings, session, sink=sink).start()
         try:
             service.run(stop)
         finally:
             service.close()
+            if sink is not None:
+                sink.close()
     log.info("agent %s stopped: %s", agent_id, service.health().model_dump_json())
     return 0

@@ -11,6 +11,7 @@ import time
 import numpy as np
 
 from stiction import zenoh_config
+from stiction.commands.agent import open_sink
 from stiction.commands.sim import stop_on_signals
 from stiction.errors import InputError
 
@@ -25,6 +26,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--rows", type=int, default=16, help="loops shown in the live table")
     p.add_argument("--models", help="directory with the ONNX models and their cards")
+    p.add_argument(
+        "--rerun",
+        metavar="MODE",
+        default="save:stiction-demo.rrd",
+        help="save:PATH (default save:stiction-demo.rrd), spawn, serve (web viewer), or none",
+    )
     zenoh_config.add_arguments(p)
 
 
@@ -107,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
         f"Zenoh on {endpoint}; the agent reports once a loop has a full 1000-sample window",
         flush=True,
     )
+    sink = open_sink(None if args.rerun == "none" else args.rerun)
     with (
         zenoh.open(zenoh_config.build([endpoint])) as sim_s,
         zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as agent_s,
@@ -121,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
                 models_dir=args.models,
             ),
             agent_s,
+            sink=sink,
         ).start()
         threads = [
             threading.Thread(
@@ -151,6 +160,8 @@ def run(args: argparse.Namespace) -> int:
             wall = time.monotonic() - started
             agent.close()
             dashboard.close()
+            if sink is not None:
+                sink.close()
     reports, truths = dashboard.snapshot()
     s = summarise(reports, truths, wall, published[0], agent.health())
     print("\nsummary")
@@ -170,4 +181,9 @@ def run(args: argparse.Namespace) -> int:
             f"p99 {s['latency_p99_s'] * 1e3:.0f} ms"
         )
     print(f"  rejected messages: {s['rejected'] or 'none'}")
+    if args.rerun.startswith("save:"):
+        print(
+            f"  rerun recording of the OP-PV loops before and after denoising: {args.rerun[5:]} "
+            f"(open it with: rerun {args.rerun[5:]})"
+        )
     return 0
