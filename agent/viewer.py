@@ -122,7 +122,7 @@ class RerunSink:
             rr.SeriesPoints(names="fd true", colors=[255, 127, 14], marker_sizes=2),
             static=True,
         )
-        if len(self._loops) <= 16:
+        if len(self._loops) in (1, 4, 16):  # the overview grows with the first loops, not on every one
             self.recording.send_blueprint(blueprint(self._loops))
 
     def log_report(self, report, window, details, truth=None) -> None:

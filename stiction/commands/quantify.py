@@ -24,6 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the loop is the canonical level loop (spec/thesis-loop.md): "
         "read fs and fd from its slips where the data allow",
     )
+    p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
     p.add_argument("--last", type=int, metavar="N", help="quantify only the last N samples of each file")
 
 
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
             window = Window(
                 loop_id=path.stem, op=op, pv=pv, ts_s=export.ts_s, t_end_s=float(export.t_s[-1]), process=args.process
             )
-            report = quantifier.quantify([window])[0]
+            report, details = quantifier.quantify_with_details([window])[0]
             if export.warnings:
                 report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
         except StictionError as e:  # one bad file never stops the others
@@ -66,4 +67,11 @@ def run(args: argparse.Namespace) -> int:
             failed += 1
             continue
         print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)
+        if args.plot:
+            from stiction.plots import plot_loop
+
+            args.plot.mkdir(parents=True, exist_ok=True)
+            png = plot_loop(args.plot / f"{path.stem}.png", window, report, details)
+            if not args.json:
+                print(f"  plot: {png}")
     return 2 if failed else 0

@@ -43,3 +43,16 @@ def test_readable_summary(loops, capsys):
     assert main(["quantify", str(loops / "a.csv")]) == 0
     out = capsys.readouterr().out
     assert "fs 5" in out and "thesis chain" in out and "process not declared" in out
+
+
+def test_plot_writes_one_png_per_loop_that_is_not_blank(loops, tmp_path, capsys):
+    import matplotlib.image as mpimg
+
+    out = tmp_path / "plots"
+    assert main(["quantify", "--plot", str(out), str(loops / "a.csv"), str(loops / "n5.csv")]) == 0
+    pngs = sorted(out.glob("*.png"))
+    assert [p.name for p in pngs] == ["a.png", "n5.png"]
+    for p in pngs:
+        img = mpimg.imread(p)
+        assert img.shape[0] > 300 and img.shape[1] > 800
+        assert img[..., :3].std() > 0.05  # lines and points, not an empty canvas
