@@ -37,7 +37,7 @@ def _proc_stats(pid: int) -> tuple[float, float]:
 
 def run_throughput(
     loops: int = 1000,
-    seconds: float = 60.0,
+    seconds: float = 120.0,
     speed: float = 1.0,
     window: int = 1000,
     report_every: int = 60,
@@ -110,8 +110,23 @@ def run_throughput(
         put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
         pubs = [session.declare_publisher(keys.samples(PREFIX, i), **put) for i in ids]
         ts = stream.ts_s
-        for j, pub in enumerate(pubs):  # fill every window in one burst
-            pub.put(batch_payload(ids[j], head.seq, head.t0_s, ts, head.op[j], head.pv[j], head.sp[j], "level"))
+        # fill the windows in one burst, loop j short of full by j mod report_every samples: loops then fall
+        # due at staggered times, as in a plant, not all in the same second
+        short = [int(j % report_every) for j in range(loops)]
+        for j, pub in enumerate(pubs):
+            sl = slice(short[j], window)
+            pub.put(
+                batch_payload(
+                    ids[j],
+                    head.seq + short[j],
+                    head.t0_s + short[j] * ts,
+                    ts,
+                    head.op[j, sl],
+                    head.pv[j, sl],
+                    head.sp[j, sl],
+                    "level",
+                )
+            )
         sent_at = np.zeros(n_live)
         started = time.monotonic()
         cpu0 = [_proc_stats(p.pid)[0] for p in procs]
@@ -160,8 +175,10 @@ def run_throughput(
     for h in health.values():
         for k_, v in h["rejected"].items():
             rejected[k_] = rejected.get(k_, 0) + v
-    published = loops * (window + n_live)
-    expected_reports = loops * (n_live // report_every)
+    published = int(loops * (window + n_live) - sum(short))
+    # loop j is full after live sample short-1 (at the fill if short is 0), then due every report_every samples;
+    # only reports of windows ending in the live phase count
+    expected_reports = int(sum(n_live // report_every if s == 0 else (n_live - s) // report_every + 1 for s in short))
     return {
         "loops": loops,
         "agents": agents,
