@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from urllib.parse import quote
 
 import numpy as np
 import rerun as rr
@@ -87,6 +88,7 @@ class RerunSink:
     def __init__(self, mode: str, application_id: str = "stiction", web_port: int = 9090, grpc_port: int = 9876):
         self.mode = mode
         self.url: str | None = None
+        self.web_port = web_port
         self._styled: set[str] = set()
         self._last_t: dict[str, float] = {}
         self._loops: list[str] = []
@@ -101,6 +103,10 @@ class RerunSink:
             log.info("rerun web viewer on http://127.0.0.1:%d (data %s)", web_port, self.url)
         else:
             raise ValueError(f"--rerun {mode!r}: expected save:PATH, spawn or serve")
+
+    def web_url(self) -> str:
+        """The served web viewer, already pointed at this sink's data."""
+        return f"http://127.0.0.1:{self.web_port}/?url={quote(self.url, safe='')}"
 
     def _style(self, loop_id: str) -> None:
         if loop_id in self._styled:

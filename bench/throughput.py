@@ -193,7 +193,8 @@ def run_throughput(
         "latency_p99_s": float(np.percentile(lat, 99)) if lat.size else None,
         "samples_published": published,
         "samples_ingested": samples_agents,
-        "samples_lost": published - samples_agents if health else None,
+        # each loop is held by min(agents, 2) agents (its owner and the replica that would inherit it)
+        "samples_lost": published * min(agents, 2) - samples_agents if health else None,
         "rejected": rejected,
         "agent_cpu_share": [(s[0] - c) / wall for s, c in zip(stats, cpu0, strict=True)],
         "agent_peak_rss_mb": max(s[1] for s in stats),

@@ -36,7 +36,7 @@ def open_sink(mode: str | None):
         raise InputError("--rerun needs the viewer extra: pip install -e '.[viewer]'") from None
     sink = RerunSink(mode)
     if mode == "serve":
-        print(f"rerun web viewer: http://127.0.0.1:9090 (data from {sink.url})", flush=True)
+        print(f"rerun web viewer: {sink.web_url()}", flush=True)
     return sink
 
 
