@@ -9,7 +9,6 @@ with it which loops are this agent's.
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 import time
@@ -20,7 +19,7 @@ from pathlib import Path
 from agent.core import AgentCore, CoreSettings
 from agent.pipeline import Quantifier
 from schemas import keys
-from schemas.messages import AgentHealth
+from schemas.messages import AgentHealth, LoopTruth
 from stiction.errors import StictionError
 
 log = logging.getLogger(__name__)
@@ -87,10 +86,10 @@ class AgentService:
 
     def _on_truth(self, sample) -> None:
         try:
-            truth = json.loads(sample.payload.to_bytes())
-            self.truths[truth["loop_id"]] = (float(truth["fs_pct"]), float(truth["fd_pct"]))
-        except (ValueError, KeyError, TypeError):
-            return
+            truth = LoopTruth.model_validate_json(sample.payload.to_bytes())
+        except ValueError:
+            return  # a viewer aid only: a bad truth message costs nothing else
+        self.truths[truth.loop_id] = (truth.fs_pct, truth.fd_pct)
 
     def _on_query(self, query) -> None:
         loop_id = keys.loop_id_of(self.settings.prefix, str(query.key_expr))

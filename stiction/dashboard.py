@@ -23,24 +23,26 @@ class Dashboard:
         ]
         self._session = session
 
-    def _on_report(self, sample) -> None:
+    def _read(self, model, sample):
+        """The message as ``model``, or None (counted in ``bad``) if it does not validate."""
         try:
-            report = StictionReport.model_validate_json(sample.payload.to_bytes())
+            return model.model_validate_json(sample.payload.to_bytes())
         except ValueError:
             self.bad += 1
-            return
-        with self._lock:
-            self.reports[report.loop_id] = report
-            self.received += 1
+            return None
+
+    def _on_report(self, sample) -> None:
+        report = self._read(StictionReport, sample)
+        if report is not None:
+            with self._lock:
+                self.reports[report.loop_id] = report
+                self.received += 1
 
     def _on_truth(self, sample) -> None:
-        try:
-            truth = LoopTruth.model_validate_json(sample.payload.to_bytes())
-        except ValueError:
-            self.bad += 1
-            return
-        with self._lock:
-            self.truths[truth.loop_id] = truth
+        truth = self._read(LoopTruth, sample)
+        if truth is not None:
+            with self._lock:
+                self.truths[truth.loop_id] = truth
 
     def fetch_truths(self) -> None:
         """Late joiner: ask the simulator for every loop's truth."""

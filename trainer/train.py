@@ -137,78 +137,76 @@ def run(settings: TrainSettings) -> dict:
     created = datetime.now(UTC).isoformat(timespec="seconds")
     settings_json = json.loads(json.dumps(asdict(settings), default=str))
 
-    thesis_path = settings.models_dir / "thesis_mlp.onnx"
-    thesis_sha = export(thesis_model, THESIS_WINDOW, thesis_path, "op_window", ["fs_fd_pct"])
-    thesis_card = ModelCard(
-        name="thesis_mlp",
-        version=MODEL_VERSION,
-        onnx_file=thesis_path.name,
-        onnx_sha256=thesis_sha,
-        feature_spec={
+    def write(name, model, n_features, input_spec, outputs, feature_spec, training_data, model_settings):
+        path = settings.models_dir / f"{name}.onnx"
+        sha = export(model, n_features, path, input_spec.name, [o.name for o in outputs])
+        return ModelCard(
+            name=name,
+            version=MODEL_VERSION,
+            onnx_file=path.name,
+            onnx_sha256=sha,
+            feature_spec=feature_spec,
+            inputs=[input_spec],
+            outputs=outputs,
+            training_data=training_data,
+            settings=model_settings | {"train": settings_json},
+            accuracy={k: {"mae_pp": v[f"{name}_mae_pp"], "n": v["n"]} for k, v in accuracy.items()},
+            created=created,
+        )
+
+    thesis_card = write(
+        "thesis_mlp",
+        thesis_model,
+        THESIS_WINDOW,
+        TensorSpec(name="op_window", shape=["batch", THESIS_WINDOW], description="OP, percent"),
+        [TensorSpec(name="fs_fd_pct", shape=["batch", 2], description="fs, fd: percent of 500 lbf")],
+        {
             "kind": "thesis_window",
             "length": THESIS_WINDOW,
             "start": "first upward mean crossing of OP",
             "noisy": "rebuilt OP: INLPCA curve walked at uniform speed, one turn per ACF period",
         },
-        inputs=[TensorSpec(name="op_window", shape=["batch", THESIS_WINDOW], description="OP, percent")],
-        outputs=[TensorSpec(name="fs_fd_pct", shape=["batch", 2], description="fs, fd: percent of 500 lbf")],
-        training_data={
+        {
             "set": "1275-pattern grid, one realisation, noise-free (thesis 4.2)",
             "n": int(thesis_ds.inputs.shape[0]),
             "sha256": thesis_ds.sha256(),
         },
-        settings={
-            "hidden": 25,
-            "activation": "sigmoid",
-            "split": "80/20 by grid point",
-            "fit": thesis_fit,
-            "train": settings_json,
-        },
-        accuracy={k: {"mae_pp": v["thesis_mlp_mae_pp"], "n": v["n"]} for k, v in accuracy.items()},
-        created=created,
+        {"hidden": 25, "activation": "sigmoid", "split": "80/20 by grid point", "fit": thesis_fit},
     )
-    cycle_path = settings.models_dir / "cycle_ensemble.onnx"
-    cycle_sha = export(cycle_model, CYCLE_FEATURES, cycle_path, "features", ["fs_fd_pct", "fs_fd_std_pct", "ood"])
-    cycle_card = ModelCard(
-        name="cycle_ensemble",
-        version=MODEL_VERSION,
-        onnx_file=cycle_path.name,
-        onnx_sha256=cycle_sha,
-        feature_spec={
+    cycle_card = write(
+        "cycle_ensemble",
+        cycle_model,
+        CYCLE_FEATURES,
+        TensorSpec(
+            name="features",
+            shape=["batch", CYCLE_FEATURES],
+            description="INLPCA curve OP and PV at 32 angles, time shares, ACF period",
+        ),
+        [
+            TensorSpec(name="fs_fd_pct", shape=["batch", 2], description="ensemble mean, percent of 500 lbf"),
+            TensorSpec(name="fs_fd_std_pct", shape=["batch", 2], description="ensemble spread"),
+            TensorSpec(name="ood", shape=["batch"], description="distance from training data, 1 = 99th pct"),
+        ],
+        {
             "kind": "cycle_features",
             "curve_points": CURVE_POINTS,
             "n_features": CYCLE_FEATURES,
             "inlpca": asdict(InlpcaSettings()),
         },
-        inputs=[
-            TensorSpec(
-                name="features",
-                shape=["batch", CYCLE_FEATURES],
-                description="INLPCA curve OP and PV at 32 angles, time shares, ACF period",
-            )
-        ],
-        outputs=[
-            TensorSpec(name="fs_fd_pct", shape=["batch", 2], description="ensemble mean, percent of 500 lbf"),
-            TensorSpec(name="fs_fd_std_pct", shape=["batch", 2], description="ensemble spread"),
-            TensorSpec(name="ood", shape=["batch"], description="distance from training data, 1 = 99th pct"),
-        ],
-        training_data={
+        {
             "set": "1275-pattern grid",
             "realisations": settings.realisations,
             "noisy_variants": settings.noisy_variants,
             "n": int(cycle_ds.inputs.shape[0]),
             "sha256": cycle_ds.sha256(),
         },
-        settings={
+        {
             "members": settings.ensemble,
             "hidden": [64, 64],
             "activation": "tanh",
             "split": "80/20 by grid point",
             "fits": cycle_fits,
-            "train": settings_json,
         },
-        accuracy={k: {"mae_pp": v["cycle_ensemble_mae_pp"], "n": v["n"]} for k, v in accuracy.items()},
-        created=created,
     )
     for card in (thesis_card, cycle_card):
         (settings.models_dir / f"{card.name}.card.json").write_text(card.model_dump_json(indent=2) + "\n")
