@@ -25,6 +25,11 @@ from stiction.errors import StictionError
 log = logging.getLogger(__name__)
 
 
+INGEST_PER_PASS = 1000
+"""Messages ingested before the worker looks for due windows: a window due early in a burst of
+thousands of messages is reported without waiting for the whole burst."""
+
+
 @dataclass(frozen=True)
 class AgentSettings:
     agent_id: str
@@ -134,7 +139,7 @@ class AgentService:
             alive = set(self._alive)
         self.core.set_agents(alive)
         n = 0
-        while self._inbox and n < 20000:
+        while self._inbox and n < INGEST_PER_PASS:
             key, payload, encoding, arrived = self._inbox.popleft()
             self.core.ingest(key, payload, encoding, arrived)
             n += 1
