@@ -28,6 +28,9 @@ log = logging.getLogger(__name__)
 INGEST_PER_PASS = 1000
 """Messages ingested before the worker looks for due windows: a window due early in a burst of
 thousands of messages is reported without waiting for the whole burst."""
+BACKLOG_MESSAGES = 20000
+"""Past this many queued messages the agent is behind: it ingests them all first, so the queue
+stays bounded and reports are late rather than samples stranded."""
 
 
 @dataclass(frozen=True)
@@ -139,7 +142,8 @@ class AgentService:
             alive = set(self._alive)
         self.core.set_agents(alive)
         n = 0
-        while self._inbox and n < INGEST_PER_PASS:
+        limit = INGEST_PER_PASS if len(self._inbox) <= BACKLOG_MESSAGES else len(self._inbox)
+        while self._inbox and n < limit:
             key, payload, encoding, arrived = self._inbox.popleft()
             self.core.ingest(key, payload, encoding, arrived)
             n += 1

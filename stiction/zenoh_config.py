@@ -59,3 +59,20 @@ def from_args(args: argparse.Namespace):
     except ValueError as e:
         raise InputError(str(e)) from None
     return build(args.listen, args.connect, args.config)
+
+
+def open_session(cfg, endpoints: str = ""):
+    """``zenoh.open`` with its errors (bad endpoint, port in use, ...) as one-line input errors."""
+    import zenoh
+
+    try:
+        return zenoh.open(cfg)
+    except zenoh.ZError as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        where = f" ({endpoints})" if endpoints else ""
+        raise InputError(f"cannot open a Zenoh session{where}: {first.split(' at /')[0]}") from None
+
+
+def open_from_args(args: argparse.Namespace):
+    given = {"listen": args.listen, "connect": args.connect, "config": args.config}
+    return open_session(from_args(args), ", ".join(f"{k} {v}" for k, v in given.items() if v))

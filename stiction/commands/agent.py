@@ -41,7 +41,6 @@ def open_sink(mode: str | None):
 
 
 def run(args: argparse.Namespace) -> int:
-    import zenoh
 
     from agent.service import AgentService, AgentSettings
 
@@ -61,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     log.info("settings: %s", settings)
     stop = stop_on_signals()
     sink = open_sink(args.rerun)
-    with zenoh.open(zenoh_config.from_args(args)) as session:
+    with zenoh_config.open_from_args(args) as session:
         service = AgentService(settings, session, sink=sink).start()
         try:
             service.run(stop)

@@ -92,7 +92,6 @@ def summarise(reports, truths, wall_s: float, published: int, health) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    import zenoh
 
     from agent.service import AgentService, AgentSettings
     from sim.publisher import PublisherSettings
@@ -116,9 +115,13 @@ def run(args: argparse.Namespace) -> int:
     )
     sink = open_sink(None if args.rerun == "none" else args.rerun)
     with (
-        zenoh.open(zenoh_config.build([endpoint])) as sim_s,
-        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as agent_s,
-        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as dash_s,
+        zenoh_config.open_session(zenoh_config.build([endpoint])) as sim_s,
+        zenoh_config.open_session(
+            zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])
+        ) as agent_s,
+        zenoh_config.open_session(
+            zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])
+        ) as dash_s,
     ):
         dashboard = Dashboard(dash_s, args.prefix)
         agent = AgentService(

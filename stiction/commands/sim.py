@@ -31,7 +31,6 @@ def stop_on_signals() -> threading.Event:
 
 
 def run(args: argparse.Namespace) -> int:
-    import zenoh
 
     from sim.publisher import PublisherSettings
     from sim.publisher import run as publish
@@ -50,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     )
     log.info("settings: %s", settings)
     stop = stop_on_signals()
-    with zenoh.open(zenoh_config.from_args(args)) as session:
+    with zenoh_config.open_from_args(args) as session:
         published = publish(settings, session, stop)
     log.info("published %d samples per loop", published)
     return 0
