@@ -58,5 +58,5 @@ def analyse(
     rebuilt = features.rebuilt_op(fit, period_s, ts_s)
     thesis_input = np.where(noisy[:, None], rebuilt, raw)
     cycle_input = features.cycle_features(fit, period_s)
-    reading = physical.read(op, pv, ts_s)
+    reading = physical.read_best(op, pv, ts_s)
     return WindowAnalysis(period_s, regularity, rough, noisy, fit, thesis_input, cycle_input, reading)

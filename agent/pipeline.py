@@ -28,6 +28,8 @@ from stiction.errors import InputError
 MIN_SAMPLES = 100
 """The thesis' window; the ACF then finds a period only for cycles up to about 50 samples."""
 PHYSICAL_MAX_SE_PCT = 0.25
+SEGMENTED_MAX_SE_PCT = 0.5
+"""Trust for the segmented (noisy-window) reading; chosen on 200 random loops of seed 12345, not the holdout."""
 REGULARITY_OSCILLATING = 0.3
 MAX_SLIPS_PER_PERIOD = 12  # more is noise read as slips (slow cycles may slip ~6 times a period)
 
@@ -124,8 +126,8 @@ class Quantifier:
         physical_ok = (
             level
             & np.isfinite(phys.fs_pct)
-            & (phys.fs_se_pct <= PHYSICAL_MAX_SE_PCT)
-            & (phys.fd_se_pct <= PHYSICAL_MAX_SE_PCT)
+            & (phys.fs_se_pct <= np.where(phys.segmented, SEGMENTED_MAX_SE_PCT, PHYSICAL_MAX_SE_PCT))
+            & (phys.fd_se_pct <= np.where(phys.segmented, SEGMENTED_MAX_SE_PCT, PHYSICAL_MAX_SE_PCT))
             & (phys.slips <= slip_limit)
         )
         reports = []

@@ -40,12 +40,16 @@ def test_noise_free_cases_are_read_physically_and_exactly(quantifier, cases):
     assert np.mean(errors) < 0.1
 
 
-def test_white_noise_falls_back_to_the_learned_ensemble(quantifier, cases):
+def test_white_noise_windows_are_denoised_and_carry_an_uncertainty(quantifier, cases):
     specs, r = cases
     reports = quantifier.quantify(_windows(specs, r)[13:16])  # N4-N6: gaussian
-    for rep in reports:
-        assert rep.method == "learned" and rep.denoised
+    truth = list(specs.values())[13:16]
+    errors = []
+    for rep, spec in zip(reports, truth, strict=True):
+        assert rep.denoised and rep.method in ("physical", "learned")
         assert rep.fs_se_pct is not None and rep.fs_se_pct > 0
+        errors += [abs(rep.fs_pct - spec.fs_pct), abs(rep.fd_pct - spec.fd_pct)]
+    assert np.mean(errors) < 1.5
 
 
 def test_every_report_carries_the_thesis_chain_and_validates(quantifier, cases):

@@ -1,0 +1,69 @@
+"""The physical reading: MV from PV, and the segmented reading against simple references."""
+
+from itertools import combinations
+
+import numpy as np
+import pytest
+
+from agent import physical
+from sim.disturbance import Disturbance
+from sim.grid import case_specs
+from sim.loop import LoopSpec, simulate
+
+
+def test_mv_follows_from_pv_for_the_level_loop():
+    r = simulate(list(case_specs().values())[:10]).kept()
+    mv = physical.reconstruct_mv(r.pv)
+    np.testing.assert_allclose(mv[:, physical.SETTLE_SAMPLES :], r.mv[:, physical.SETTLE_SAMPLES :], atol=1e-6)
+
+
+def _exhaustive(f, penalty):
+    """Every partition of a short series: the least penalised squared error."""
+    n, best = f.size, (np.inf, None)
+    for k in range(n):
+        for cuts in combinations(range(1, n), k):
+            bounds = [0, *cuts, n]
+            cost = sum(np.sum((f[a:b] - f[a:b].mean()) ** 2) for a, b in zip(bounds[:-1], bounds[1:], strict=True))
+            cost += penalty * (len(bounds) - 1)
+            if cost < best[0]:
+                best = (cost, bounds[1:])
+    return best[1]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_segmentation_is_the_optimal_partition(seed):
+    rng = np.random.default_rng(seed)
+    f = np.repeat(rng.normal(0, 3, 4), 3)[:11] + rng.normal(0, 0.5, 11)
+    penalty = float(rng.uniform(0.2, 3))
+    assert physical.segment_ends(f[None, :], np.array([penalty]))[0] == _exhaustive(f, penalty)
+
+
+def _white_noise_loops(where, coefficient):
+    specs = [
+        LoopSpec(fs, fd, disturbance=Disturbance("gaussian", where, coefficient), seed=s)
+        for s, (fs, fd) in enumerate([(46.8, 4.0), (29.0, 16.0), (70.0, 30.0), (17.8, 8.0)])
+    ]
+    return specs, simulate(specs).kept()
+
+
+def test_segmented_reading_sees_through_white_input_noise():
+    specs, r = _white_noise_loops("input", 0.3)
+    truth = np.array([[s.fs_pct, s.fd_pct] for s in specs])
+    seg = physical.read_segmented(r.op, r.pv)
+    sample_wise = physical.read(r.op, r.pv)
+    err_seg = np.abs(np.column_stack([seg.fs_pct, seg.fd_pct]) - truth).mean()
+    err_sample = np.abs(np.column_stack([sample_wise.fs_pct, sample_wise.fd_pct]) - truth).mean()
+    assert err_seg < 0.6 and err_seg < 0.5 * err_sample
+    assert physical.read_best(r.op, r.pv).segmented.all()
+
+
+@pytest.mark.parametrize("coefficient", [0.1, 0.2])
+def test_segmented_reading_abstains_or_is_right_under_white_output_noise(coefficient):
+    from agent.pipeline import SEGMENTED_MAX_SE_PCT
+
+    specs, r = _white_noise_loops("output", coefficient)
+    seg = physical.read_segmented(r.op, r.pv)
+    for i, spec in enumerate(specs):
+        trusted = max(seg.fs_se_pct[i], seg.fd_se_pct[i]) <= SEGMENTED_MAX_SE_PCT
+        if trusted:  # a reading the pipeline would use must be right
+            assert abs(seg.fs_pct[i] - spec.fs_pct) < 1.5 and abs(seg.fd_pct[i] - spec.fd_pct) < 1.5
