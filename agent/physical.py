@@ -57,6 +57,23 @@ def reconstruct_mv(pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_
     return mv
 
 
+TO_PCT = VALVE.lbf_per_pct * 100.0 / 500.0
+"""Percent of OP-MV gap to percent of 500 lbf."""
+
+
+def _from_slips(gap_stuck, gap_broke, gap_after) -> tuple[float, float, float, float]:
+    """Per-slip readings -> (fs, fd, their standard errors), percent of 500 lbf.
+
+    The band lies between the gap at the last stuck sample and the gap at breakaway; fd is the
+    force left on the stem after the slip, less the Stribeck stop residual (a fraction of a lbf).
+    """
+    fs_k = 0.5 * (gap_stuck + gap_broke) * TO_PCT
+    stop_k = gap_after * TO_PCT
+    fs, stop = float(np.median(fs_k)), float(np.median(stop_k))
+    fd = stop - float(lbf_to_pct(VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs - stop))))
+    return fs, fd, _robust_se(fs_k), _robust_se(stop_k)
+
+
 def _robust_se(x: np.ndarray) -> float:
     """Standard error of a median from the MAD (normal efficiency factor 1.25)."""
     mad = 1.4826 * np.median(np.abs(x - np.median(x)))
@@ -78,7 +95,6 @@ def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = 
     slipped[:, 0] = False  # a slip needs the stuck sample before it
     gap = np.abs(op - mv)
     gap_after = np.abs(op[:, :-1] - mv[:, 1:])
-    to_pct = VALVE.lbf_per_pct * 100.0 / 500.0
     n_win = op.shape[0]
     fs, fd, fs_se, fd_se = (np.full(n_win, np.nan) for _ in range(4))
     bracketed = np.zeros(n_win, bool)
@@ -87,20 +103,14 @@ def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = 
         k = np.flatnonzero(slipped[i])
         if k.size < 4:
             continue
-        fs_k = 0.5 * (gap[i, k - 1] + gap[i, k]) * to_pct
-        fd_k = gap_after[i, k] * to_pct
-        fs[i], fd[i] = np.median(fs_k), np.median(fd_k)
-        fs_se[i], fd_se[i] = _robust_se(fs_k), _robust_se(fd_k)
+        fs[i], fd[i], fs_se[i], fd_se[i] = _from_slips(gap[i, k - 1], gap[i, k], gap_after[i, k])
         stuck = ~slipped[i]
         stuck[0] = False  # its predecessor is unknown: it may have been a slip
         low, high = gap[i, :-1][stuck].max(), gap[i, k].min()
-        if low < high:
+        if low < high:  # no noise: the intersection of all brackets
             bracketed[i] = True
-            fs[i] = 0.5 * (low + high) * to_pct
-            fs_se[i] = (high - low) * to_pct / np.sqrt(12)
-        # the stop residual: fd is a fraction of a lbf below the force left on the stem
-        residual_lbf = VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs[i] - fd[i]))
-        fd[i] -= lbf_to_pct(residual_lbf)
+            fs[i] = 0.5 * (low + high) * TO_PCT
+            fs_se[i] = (high - low) * TO_PCT / np.sqrt(12)
     return PhysicalReading(fs, fd, fs_se, fd_se, slips, bracketed, np.zeros(n_win, bool))
 
 
@@ -148,7 +158,6 @@ def read_segmented(
     d = np.diff(flow, axis=1)
     noise_var = (1.4826 * np.median(np.abs(d - np.median(d, axis=1, keepdims=True)), axis=1)) ** 2 / 2
     ends = segment_ends(flow, SEGMENT_PENALTY * noise_var * np.log(n) + 1e-12)
-    to_pct = VALVE.lbf_per_pct * 100.0 / 500.0
     fs, fd, fs_se, fd_se, slips = (np.full(n_win, np.nan) for _ in range(5))
     for w in range(n_win):
         bounds = [0, *ends[w]]
@@ -161,17 +170,10 @@ def read_segmented(
         k, i = starts[real], np.flatnonzero(real)
         if k.size < 4:
             continue
-        fs_k = 0.5 * (np.abs(op[w, k - 1] - mv[i]) + np.abs(op[w, k] - mv[i])) * to_pct
-        fd_k = np.abs(op[w, k] - mv[i + 1]) * to_pct
-        fs[w], fd[w], fs_se[w], fd_se[w], slips[w] = (
-            np.median(fs_k),
-            np.median(fd_k),
-            _robust_se(fs_k),
-            _robust_se(fd_k),
-            k.size,
+        fs[w], fd[w], fs_se[w], fd_se[w] = _from_slips(
+            np.abs(op[w, k - 1] - mv[i]), np.abs(op[w, k] - mv[i]), np.abs(op[w, k] - mv[i + 1])
         )
-        residual_lbf = VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs[w] - fd[w]))
-        fd[w] -= lbf_to_pct(residual_lbf)
+        slips[w] = k.size
     return PhysicalReading(fs, fd, fs_se, fd_se, slips, np.zeros(n_win, bool), np.ones(n_win, bool))
 
 
