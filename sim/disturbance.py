@@ -36,8 +36,8 @@ class Disturbance:
             raise ValueError(f"disturbance coefficient must be finite and >= 0, got {self.coefficient}")
 
     def label(self) -> str:
-        shape = f"sine({self.omega_rad_s:g})" if self.shape == "sine" else self.shape
-        return f"{self.where}, {self.coefficient:g} {shape}"
+        shape = f"sine({self.omega_rad_s:.3g})" if self.shape == "sine" else self.shape
+        return f"{self.where}, {self.coefficient:.3g} {shape}"
 
 
 def kasdin_ar_coefficients(alpha: float, order: int = 63) -> np.ndarray:
