@@ -14,6 +14,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s = sub.add_parser("sim", help="the training grid's time against the ODE reference")
     s.add_argument("--reference-loops", type=int, default=3, help="grid points run through the slow reference")
     s.add_argument("--repeats", type=int, default=3, help="grid timings; the median is reported")
+    s.add_argument("--no-agreement", action="store_true", help="skip the interval-by-interval check (~25 s)")
     s.add_argument("--json", action="store_true")
     t = sub.add_parser("throughput", help="replay publisher and agent processes on loopback: rates, latency, memory")
     t.add_argument("--loops", type=int, default=1000)
@@ -36,9 +37,11 @@ def _machine() -> dict:
 
 def run(args: argparse.Namespace) -> int:
     if args.bench == "sim":
-        from bench.sim_speed import bench_sim
+        from bench.sim_speed import bench_agreement, bench_sim
 
         figures = bench_sim(reference_loops=args.reference_loops, repeats=args.repeats) | {"host": _machine()}
+        if not args.no_agreement:
+            figures["agreement"] = bench_agreement()
         if args.json:
             print(json.dumps(figures))
         else:
@@ -55,6 +58,13 @@ def run(args: argparse.Namespace) -> int:
                 f"  speedup            {figures['speedup']:8.0f} x  (same loops one at a time:"
                 f" {figures['speedup_single_loop']:.0f} x)"
             )
+            if "agreement" in figures:
+                a = figures["agreement"]
+                print(
+                    f"  one interval from the reference's state, 20 test cases x {a['intervals_per_case']} samples:"
+                    f" worst MV difference {a['worst_mv_diff_pct']:.1e} % of span (spec: < 0.05 %),"
+                    f" worst PV difference {a['worst_pv_diff_pct']:.1e} %, >= {a['min_slips_per_case']} slips a case"
+                )
     elif args.bench == "accuracy":
         _accuracy(args)
     elif args.bench == "throughput":
