@@ -44,10 +44,12 @@ def analyse(
     ts_s: float = 1.0,
     settings: inlpca.InlpcaSettings = inlpca.DEFAULT_SETTINGS,
     denoise: bool | None = None,
+    physical_reading: bool = True,
 ) -> WindowAnalysis:
     """[W, N] OP and PV windows (percent, sample time ``ts_s``) -> everything the predictors need.
 
     ``denoise``: whether the thesis chain uses the rebuilt OP; by default where OP is rough.
+    ``physical_reading``: False skips it (all nan), for callers that never use it (the trainer).
     """
     op, pv = np.atleast_2d(op).astype(float), np.atleast_2d(pv).astype(float)
     period_s, regularity = acf_period(op, ts_s)
@@ -58,5 +60,5 @@ def analyse(
     rebuilt = features.rebuilt_op(fit, period_s, ts_s)
     thesis_input = np.where(noisy[:, None], rebuilt, raw)
     cycle_input = features.cycle_features(fit, period_s)
-    reading = physical.read_best(op, pv, ts_s)
+    reading = physical.read_best(op, pv, ts_s) if physical_reading else physical.no_reading(op.shape[0])
     return WindowAnalysis(period_s, regularity, rough, noisy, fit, thesis_input, cycle_input, reading)

@@ -40,10 +40,10 @@ def thesis_window(op: np.ndarray, length: int = THESIS_WINDOW) -> np.ndarray:
     return out
 
 
-def _angle_of_max_op(fit: InlpcaFit) -> tuple[np.ndarray, np.ndarray]:
+def _angle_of_max_op(fit: InlpcaFit) -> np.ndarray:
     grid = np.linspace(-np.pi, np.pi, 256, endpoint=False)
     curve = fit.curve(np.broadcast_to(grid, (fit.travel.size, grid.size)))
-    return grid[np.argmax(curve[..., 0], axis=1)], curve
+    return grid[np.argmax(curve[..., 0], axis=1)]
 
 
 def rebuilt_op(fit: InlpcaFit, period_s: np.ndarray, ts_s: float = 1.0, length: int = THESIS_WINDOW) -> np.ndarray:
@@ -71,7 +71,7 @@ def rebuilt_op(fit: InlpcaFit, period_s: np.ndarray, ts_s: float = 1.0, length: 
 def cycle_features(fit: InlpcaFit, period_s: np.ndarray) -> np.ndarray:
     """[W, CYCLE_FEATURES]: curve OP and PV (mean removed from PV), time shares, period."""
     n_win = fit.travel.size
-    start, _ = _angle_of_max_op(fit)
+    start = _angle_of_max_op(fit)
     steps = np.arange(CURVE_POINTS) * 2 * np.pi / CURVE_POINTS
     angles = start[:, None] + fit.travel[:, None] * steps[None, :]
     curve = fit.curve(angles)  # [W, P, 2]

@@ -177,6 +177,11 @@ def read_segmented(
     return PhysicalReading(fs, fd, fs_se, fd_se, slips, np.zeros(n_win, bool), np.ones(n_win, bool))
 
 
+def no_reading(n_win: int) -> PhysicalReading:
+    nan, no = np.full(n_win, np.nan), np.zeros(n_win, bool)
+    return PhysicalReading(nan, nan, nan, nan, np.zeros(n_win), no, no)
+
+
 def read_best(
     op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S
 ) -> PhysicalReading:

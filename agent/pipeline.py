@@ -68,7 +68,6 @@ class Details:
 
     curve: np.ndarray  # [M, 2] the INLPCA curve, (op, pv), closed
     denoised: np.ndarray  # [N, 2] each sample's projection onto the curve
-    rebuilt_op: np.ndarray  # [100] the thesis' rebuilt OP(t)
 
 
 def _opt(x) -> float | None:
@@ -186,5 +185,5 @@ class Quantifier:
                     n_samples=int(n_samples),
                 )
             )
-        details = [Details(curves[i], a.fit.denoised[i], a.thesis_input[i]) for i in range(len(windows))]
+        details = [Details(curves[i], a.fit.denoised[i]) for i in range(len(windows))]
         return list(zip(reports, details, strict=True))

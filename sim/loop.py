@@ -151,7 +151,7 @@ def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
     )
 
 
-def _external_oscillation(specs: Sequence[LoopSpec], t_s: np.ndarray) -> np.ndarray:
+def external_oscillation(specs: Sequence[LoopSpec], t_s: np.ndarray) -> np.ndarray:
     w = np.zeros((len(specs), t_s.size))
     for i, s in enumerate(specs):
         e = s.extensions
@@ -291,7 +291,7 @@ def simulate(
         raise ValueError(f"duration_s={duration_s} gives fewer than 2 samples")
     t_s = np.arange(n_samples) * ts_s
     batch = build_batch(specs, ts_s)
-    w0 = _external_oscillation(specs, t_s)
+    w0 = external_oscillation(specs, t_s)
     z0 = np.zeros_like(w0)
     op, pv, mv = run_batch(batch, w0, z0, ts_s)
     if any(s.disturbance is not None for s in specs):

@@ -15,7 +15,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sim.disturbance import rms, unit_shape
-from sim.loop import DURATION_S, TS_S, WARMUP_S, LoopSpec, LoopState, advance, build_batch, simulate
+from sim.loop import (
+    DURATION_S,
+    TS_S,
+    WARMUP_S,
+    LoopSpec,
+    LoopState,
+    advance,
+    build_batch,
+    external_oscillation,
+    simulate,
+)
 
 
 @dataclass(frozen=True)
@@ -84,10 +94,7 @@ class LoopStream:
                         shape[~head] = (walk - self._walk_norm[i, 0]) / self._walk_norm[i, 1]
             scale = self._rms_mv[i] if d.where == "input" else self._rms_pv[i]
             (w if d.where == "input" else z)[i] = d.coefficient * scale * shape
-        for i, s in enumerate(self.specs):
-            e = s.extensions
-            if e.osc_period_s > 0:
-                w[i] += e.osc_amplitude_pct * np.sin(2 * np.pi * k * self.ts_s / e.osc_period_s)
+        w += external_oscillation(self.specs, k * self.ts_s)
         return w, z
 
     def next(self, n: int) -> Chunk:

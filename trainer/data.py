@@ -62,7 +62,7 @@ def cycle_set(
         r = simulate(specs, duration_s=duration)
         for k in range(realisations):
             sl = slice(1000 + k * WINDOW_S, 1000 + (k + 1) * WINDOW_S)
-            a = analyse(r.op[:, sl], r.pv[:, sl])
+            a = analyse(r.op[:, sl], r.pv[:, sl], physical_reading=False)
             inputs.append(a.cycle_input)
             targets.append([[s.fs_pct, s.fd_pct] for s in specs])
             groups.append(np.arange(len(specs)))
