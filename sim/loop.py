@@ -21,10 +21,11 @@ from typing import Literal
 
 import numpy as np
 
+from sim.actuator import actuate
 from sim.disturbance import Disturbance, rms, unit_shape
-from sim.extensions import Extensions, backlash
+from sim.extensions import Extensions
 from sim.process import LOOPS, continuous_plant, discretise
-from sim.valve import Friction, lagged_valve_step, pct_to_lbf, valve_step
+from sim.valve import Friction, pct_to_lbf
 
 TS_S = 1.0
 DURATION_S = 2000.0
@@ -185,10 +186,6 @@ class LoopState:
         return cls(np.zeros((n, 2)), zeros, zeros, zeros, zeros, np.zeros((n, int(batch.delay.max()) + 2)))
 
 
-def _subset(fr: Friction, idx) -> Friction:
-    return Friction(fr.fs_lbf[idx], fr.stop_lbf[idx], fr.slip_s[idx], fr.lbf_per_pct[idx])
-
-
 def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S):
     """One sample of every loop: returns ``(next_state, op, pv)`` for sample ``state.k``.
 
@@ -200,20 +197,10 @@ def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: 
     error_sum = state.error_sum + error
     op = batch.kc * (error + ts_s / batch.ti_s * error_sum)
 
-    played = backlash(op, state.played, batch.deadband_pct)
-    target = np.where(batch.deadband_pct > 0, played, op)
-    lagged = batch.actuator_tau_s > 0
-    if lagged.any():
-        idx = np.flatnonzero(lagged)
-        slip_lag, drive_lag = lagged_valve_step(
-            state.drive[idx], target[idx], batch.actuator_tau_s[idx], ts_s, state.mv[idx], _subset(batch.friction, idx)
-        )
-    slip = valve_step(target, state.mv, batch.friction)
-    mv_next, deficit, drive = slip.mv_pct, slip.deficit_pct_s, target
-    if lagged.any():
-        mv_next, deficit, drive = mv_next.copy(), deficit.copy(), drive.copy()
-        mv_next[idx], deficit[idx], drive[idx] = slip_lag.mv_pct, slip_lag.deficit_pct_s, drive_lag
-    flow = mv_next - deficit / ts_s  # mean flow over the interval
+    act = actuate(
+        op, state.mv, state.drive, state.played, batch.friction, batch.deadband_pct, batch.actuator_tau_s, ts_s
+    )
+    mv_next, flow = act.mv_pct, act.flow_pct
 
     hist = state.flow_hist
     ring = hist.shape[1]
@@ -231,7 +218,7 @@ def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: 
         + batch.gamma_prev * flow_prev[:, None]
         + batch.gamma_w * w[:, None]
     )
-    return LoopState(x_next, error_sum, mv_next, drive, played, hist, state.k + 1), op, pv
+    return LoopState(x_next, error_sum, mv_next, act.drive_pct, act.played_pct, hist, state.k + 1), op, pv
 
 
 def run_batch(
