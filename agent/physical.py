@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ident.segment import noise_variance, segment_ends
 from sim.valve import VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
 
 LEVEL_GAIN_PER_S = 1.0 / 15.0
@@ -119,35 +120,6 @@ SEGMENT_PENALTY = 3.0
 """Penalty per segment, in units of the flow's noise variance times log(N) (a BIC-like choice)."""
 
 
-def segment_ends(f: np.ndarray, penalty: np.ndarray) -> list[list[int]]:
-    """Optimal partition of each row of ``f`` [W, N] into constant pieces: the pieces' end indices.
-
-    Dynamic programming over the end of the last piece, ``F[t] = min_s F[s] + SSE(s, t) + penalty``,
-    vectorised over windows and start points (O(N^2) per window, ~2 ms for N = 1000).
-    """
-    n_win, n = f.shape
-    c1 = np.concatenate([np.zeros((n_win, 1)), np.cumsum(f, axis=1)], axis=1)
-    c2 = np.concatenate([np.zeros((n_win, 1)), np.cumsum(f * f, axis=1)], axis=1)
-    best = np.full((n_win, n + 1), np.inf)
-    best[:, 0] = -penalty
-    last = np.zeros((n_win, n + 1), dtype=int)
-    rows = np.arange(n_win)
-    for t in range(1, n + 1):
-        length = t - np.arange(t)
-        sse = (c2[:, t : t + 1] - c2[:, :t]) - (c1[:, t : t + 1] - c1[:, :t]) ** 2 / length
-        total = best[:, :t] + sse + penalty[:, None]
-        j = np.argmin(total, axis=1)
-        best[:, t], last[:, t] = total[rows, j], j
-    ends = []
-    for w in range(n_win):
-        e, t = [], n
-        while t > 0:
-            e.append(t)
-            t = last[w, t]
-        ends.append(e[::-1])
-    return ends
-
-
 def read_segmented(
     op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S
 ) -> PhysicalReading:
@@ -155,9 +127,7 @@ def read_segmented(
     op, pv = np.atleast_2d(op).astype(float), np.atleast_2d(pv).astype(float)
     flow = np.diff(pv, axis=1) / (gain_per_s * ts_s)
     n_win, n = flow.shape
-    d = np.diff(flow, axis=1)
-    noise_var = (1.4826 * np.median(np.abs(d - np.median(d, axis=1, keepdims=True)), axis=1)) ** 2 / 2
-    ends = segment_ends(flow, SEGMENT_PENALTY * noise_var * np.log(n) + 1e-12)
+    ends = segment_ends(flow, SEGMENT_PENALTY * noise_variance(flow) * np.log(n) + 1e-12)
     fs, fd, fs_se, fd_se, slips = (np.full(n_win, np.nan) for _ in range(5))
     for w in range(n_win):
         bounds = [0, *ends[w]]

@@ -1,7 +1,5 @@
 """The physical reading: MV from PV, and the segmented reading against simple references."""
 
-from itertools import combinations
-
 import numpy as np
 import pytest
 
@@ -15,27 +13,6 @@ def test_mv_follows_from_pv_for_the_level_loop():
     r = simulate(list(case_specs().values())[:10]).kept()
     mv = physical.reconstruct_mv(r.pv)
     np.testing.assert_allclose(mv[:, physical.SETTLE_SAMPLES :], r.mv[:, physical.SETTLE_SAMPLES :], atol=1e-6)
-
-
-def _exhaustive(f, penalty):
-    """Every partition of a short series: the least penalised squared error."""
-    n, best = f.size, (np.inf, None)
-    for k in range(n):
-        for cuts in combinations(range(1, n), k):
-            bounds = [0, *cuts, n]
-            cost = sum(np.sum((f[a:b] - f[a:b].mean()) ** 2) for a, b in zip(bounds[:-1], bounds[1:], strict=True))
-            cost += penalty * (len(bounds) - 1)
-            if cost < best[0]:
-                best = (cost, bounds[1:])
-    return best[1]
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_segmentation_is_the_optimal_partition(seed):
-    rng = np.random.default_rng(seed)
-    f = np.repeat(rng.normal(0, 3, 4), 3)[:11] + rng.normal(0, 0.5, 11)
-    penalty = float(rng.uniform(0.2, 3))
-    assert physical.segment_ends(f[None, :], np.array([penalty]))[0] == _exhaustive(f, penalty)
 
 
 def _white_noise_loops(where, coefficient):

@@ -1,0 +1,66 @@
+"""A measured loop prepared for open-loop fits: the compared signal and its nuisance space.
+
+Fits compare the change of PV over ``horizon`` samples, ``L(q) = 1 - q^-horizon``,
+applied alike to the data and to every model's output.  For an integrating process
+this is an ``horizon``-step prediction from the measured PV, so an error in the stem's
+level costs only for ``horizon`` samples instead of for the rest of the record; for a
+self-regulating one it removes the unknown operating point.  The first ``skip``
+samples only warm the filters up (unknown inputs before the record, dead time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def change(x: np.ndarray, horizon: int) -> np.ndarray:
+    """``x[k] - x[k - horizon]`` for ``k >= horizon`` along the last axis."""
+    return x[..., horizon:] - x[..., :-horizon]
+
+
+@dataclass(frozen=True)
+class Record:
+    op_pct: np.ndarray
+    pv_pct: np.ndarray
+    ts_s: float
+    horizon: int = 1
+    skip: int = 12
+    mv_pct: np.ndarray | None = None
+    """The measured stem position, where the export has it."""
+
+    def __post_init__(self):
+        if self.op_pct.shape != self.pv_pct.shape or self.op_pct.ndim != 1:
+            raise ValueError("op and pv must be 1-D of equal length")
+        if self.n_fit < 20:
+            raise ValueError(f"{self.op_pct.size} samples leave {self.n_fit} to compare after the warm-up")
+
+    @property
+    def n(self) -> int:
+        return self.op_pct.size
+
+    @property
+    def n_fit(self) -> int:
+        return self.n - self.horizon - self.skip
+
+    @property
+    def t_s(self) -> np.ndarray:
+        return np.arange(self.n) * self.ts_s
+
+    def compared(self, x: np.ndarray) -> np.ndarray:
+        """The compared part of any signal [..., N]: its change over the horizon after the warm-up."""
+        return change(x, self.horizon)[..., self.skip :]
+
+    @property
+    def target(self) -> np.ndarray:
+        return self.compared(self.pv_pct)
+
+
+def orthonormal_basis(columns: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    """[n, q] orthonormal basis of the span of ``columns`` [n, p]; dependent or empty columns dropped."""
+    if columns.size == 0:
+        return np.zeros((columns.shape[0], 0))
+    u, s, _ = np.linalg.svd(columns, full_matrices=False)
+    keep = s > rtol * max(s.max(), 1e-300)
+    return u[:, keep]
