@@ -5,23 +5,25 @@ gain is free, the actuator lag and an external oscillation's period.  Under it:
 
 1. the stem's slips are read from PV (``ident.stem``);
 2. the valve model says where the stem lands after each slip: ``drive - s * stop`` with
-   ``drive`` the (lagged) OP when it slipped and ``s`` the slip's direction, and the
-   interval of the slip withholds ``Fv/k`` seconds of flow per percent (``sim.valve``);
+   ``drive`` the (lagged) OP when it slipped and ``s`` the slip's direction; the interval
+   of a slip sees the old position until the break and withholds ``Fv/k`` seconds of
+   flow per percent of the jump (``sim.valve``);
 3. through the process, PV's change over the compared horizon is then linear in the
    gain ``g``, in ``g * stop`` and in the nuisances (initial state, a constant, the
    level before the first slip, an external sine): one least-squares solve gives all
-   of them with their covariance (``ident.objective``'s variable projection).
+   of them with their covariance (variable projection, ``ident.objective``).
 
 The slips' times come from the data, not from an open-loop run of the valve: OP's
 excursions in a closed loop are exactly what the real valve needed to slip, so a model
 valve whose band is a hair too wide misses a slip and never catches up again (the
-objective of a plain open-loop fit is a needle; see docs/measured-data.md).  The band
-``S`` is read afterwards from the brackets every slip puts on it.
+objective of a plain open-loop fit is a needle).  The band ``S`` is read afterwards
+from the brackets every slip puts on it, and the valve model then adds the slips the
+segmentation missed: wherever the drive leaves the band around the stem.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -35,6 +37,7 @@ SLIP_S = VALVE.viscous_lbf_s_per_in / VALVE.spring_lbf_per_in
 """Flow-time a slip of 1 % withholds (the stem's two time constants, ``sim.valve``)."""
 PCT_OF_500LBF_PER_PCT = VALVE.lbf_per_pct * 100.0 / 500.0
 """S or stop in % of OP -> percent of 500 lbf (the thesis's fs/fd)."""
+PASSES = 3
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,51 @@ class Hypothesis:
 
 
 @dataclass(frozen=True)
+class Drive:
+    """The valve's drive over each sample interval: OP through the actuator's first-order lag."""
+
+    start: np.ndarray
+    end: np.ndarray
+    mean: np.ndarray
+    moves: bool = False
+    """Whether the drive moves within an interval (else it steps at the sample instants)."""
+
+
+def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
+    """Exact for OP held over each interval: ``P(t) = OP + (P0 - OP) e^(-t/tau)``."""
+    if actuator_tau_s <= 0:
+        return Drive(op_pct, op_pct, op_pct)
+    decay = np.exp(-ts_s / actuator_tau_s)
+    end = np.empty_like(op_pct)
+    d = op_pct[0]
+    for k, op in enumerate(op_pct):
+        d = op + (d - op) * decay
+        end[k] = d
+    start = np.concatenate([[op_pct[0]], end[:-1]])
+    mean = op_pct + (start - op_pct) * actuator_tau_s / ts_s * (1 - decay)
+    return Drive(start, end, mean, True)
+
+
+@dataclass(frozen=True)
+class Slips:
+    """Where the stem slipped: interval indices, directions, and how far into the interval it broke away."""
+
+    at: np.ndarray
+    directions: np.ndarray
+    breaks: np.ndarray
+    """Fraction of the interval before the break (0: at the sample instant)."""
+    landing_drive: np.ndarray
+    """The drive when the stem broke away: it lands ``stop`` short of it."""
+    read: np.ndarray
+    """True where the data's segmentation found the slip, False where the valve model added it."""
+
+    @classmethod
+    def from_path(cls, path: StemPath, drive: Drive) -> Slips:
+        at = path.slips
+        return cls(at, path.directions, np.zeros(at.size), drive.mean[at], np.ones(at.size, bool))
+
+
+@dataclass(frozen=True)
 class LinearFit:
     rss: float
     n_params: int
@@ -58,52 +106,10 @@ class LinearFit:
     sigma2: float
 
 
-@dataclass(frozen=True)
-class Drive:
-    """The valve's drive: OP through the actuator's first-order lag (exact for OP held over each interval)."""
-
-    end: np.ndarray
-    """At the end of each interval."""
-    mean: np.ndarray
-    """Mean over each interval: where, on average, a slip during it breaks away."""
-
-
-def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
-    if actuator_tau_s <= 0:
-        return Drive(op_pct.copy(), op_pct.copy())
-    decay = np.exp(-ts_s / actuator_tau_s)
-    end = np.empty_like(op_pct)
-    d = op_pct[0]
-    for k, op in enumerate(op_pct):
-        d = op + (d - op) * decay
-        end[k] = d
-    start = np.concatenate([[op_pct[0]], end[:-1]])
-    # mean of OP + (start - OP) e^(-t/tau) over the interval
-    mean = op_pct + (start - op_pct) * actuator_tau_s / ts_s * (1 - decay)
-    return Drive(end, mean)
-
-
-def _with_deficit(r: np.ndarray, slips: np.ndarray, ts_s: float) -> np.ndarray:
-    """The interval of a slip sees the mean stem position, ``Fv/k`` s of the jump short of the new level."""
-    out = r.copy()
-    ok = slips[slips > 0]
-    out[..., ok] -= SLIP_S / ts_s * (r[..., ok] - r[..., ok - 1])
-    return out
-
-
-def path_regressors(path: StemPath, drive: Drive, n: int, ts_s: float) -> np.ndarray:
-    """[3, N] input paths whose combination ``g*drive_at_slip - g*stop*direction + level0*first`` is the stem."""
-    piece = np.searchsorted(path.slips, np.arange(n), side="right")
-    at_slip = np.concatenate([[0.0], drive.mean[path.slips]])
-    direction = np.concatenate([[0.0], path.directions.astype(float)])
-    r = np.stack([at_slip[piece], direction[piece], (piece == 0).astype(float)])
-    return _with_deficit(r, path.slips, ts_s)
-
-
 def solve(y: np.ndarray, x: np.ndarray, q: np.ndarray) -> LinearFit:
-    """Least squares of ``y`` [n] on the columns of ``x`` [p, n] after projecting out ``q`` [n, k]."""
+    """Least squares of ``y`` [n] on the rows of ``x`` [p, n] after projecting out the columns of ``q`` [n, k]."""
     yp = project_out(y[None, :], q)[0]
-    xp = project_out(x, q) if x.size else x
+    xp = project_out(x, q) if x.shape[0] else x
     if xp.shape[0]:
         coef, *_ = np.linalg.lstsq(xp.T, yp, rcond=None)
         fitted = coef @ xp
@@ -117,55 +123,325 @@ def solve(y: np.ndarray, x: np.ndarray, q: np.ndarray) -> LinearFit:
     return LinearFit(rss, n_params, coef, cov, y - resid, sigma2)
 
 
+def path_regressors(slips: Slips, n: int, ts_s: float) -> np.ndarray:
+    """[3, N] inputs whose combination ``g*drive_at_slip - g*stop*direction + g*level0*first`` is the stem's flow."""
+    piece = np.searchsorted(slips.at, np.arange(n), side="right")
+    at_slip = np.concatenate([[0.0], slips.landing_drive])
+    direction = np.concatenate([[0.0], slips.directions.astype(float)])
+    r = np.stack([at_slip[piece], direction[piece], (piece == 0).astype(float)])
+    # the slip's interval: the old position until the break, then the new one, less the slip's own deficit
+    k = slips.at[slips.at > 0]
+    share = slips.breaks[slips.at > 0] + SLIP_S / ts_s
+    r[:, k] -= share * (r[:, k] - r[:, k - 1])
+    return r
+
+
 @dataclass(frozen=True)
 class ValveFit:
-    """One hypothesis fitted: the linear fit and what it says about the valve."""
+    """One hypothesis fitted: the linear fit and what it says about the valve (percent of OP)."""
 
     hypothesis: Hypothesis
-    path: StemPath
+    slips: Slips
     fit: LinearFit
     gain_ratio: float
     gain_se: float
     stop_pct: float
     stop_se: float
+    level0_pct: float
+    """The stem's position before the first slip."""
     tf: TransferFunction
+    band_pct: float = np.nan
+    """S, % of OP."""
+    band_se: float = np.nan
 
     @property
     def rss(self) -> float:
         return self.fit.rss
 
+    @property
+    def n_params(self) -> int:
+        """Linear parameters, the hypothesis's own, and one per slip the valve model did not make itself."""
+        return self.fit.n_params + _own_params(self.hypothesis) + int(self.slips.read.sum())
 
-def fit_valve(record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float = 1.0) -> ValveFit:
+
+def _linear_fit(record: Record, hyp: Hypothesis, x: np.ndarray, q: np.ndarray, nominal_gain: float) -> LinearFit:
+    """``x[0]`` is scaled by the gain; with a fixed gain it moves to the target's side."""
+    y = record.target
+    if hyp.gain_free:
+        return solve(y, x, q)
+    fit = solve(y - nominal_gain * x[0], x[1:], q)
+    return replace(fit, prediction=fit.prediction + nominal_gain * x[0])
+
+
+def _valve_from_fit(hyp: Hypothesis, fit: LinearFit, nominal_gain: float) -> tuple[float, float, float, float, float]:
+    """(gain, its SE, stop, its SE, level0) from the coefficients."""
+    if hyp.gain_free:
+        g, gs, g0 = fit.coef[0], fit.coef[1], fit.coef[2]
+        cov = fit.cov[:2, :2]
+        g_se = float(np.sqrt(max(cov[0, 0], 0.0)))
+    else:
+        g, gs, g0 = nominal_gain, fit.coef[0] * nominal_gain, fit.coef[1] * nominal_gain
+        cov = np.zeros((2, 2))
+        cov[1, 1] = fit.cov[0, 0] * nominal_gain**2
+        g_se = 0.0
+    if g == 0:
+        return 0.0, g_se, np.nan, np.nan, np.nan
+    stop = -gs / g
+    jac = np.array([gs / g**2, -1.0 / g])  # d stop / d (g, g*stop coefficient)
+    return float(g), g_se, float(stop), float(np.sqrt(max(jac @ cov @ jac, 0.0))), float(g0 / g)
+
+
+def walk(
+    read: Slips,
+    drive: Drive,
+    band: np.ndarray,
+    stop: np.ndarray,
+    level0: np.ndarray,
+    window: int,
+    read_levels: np.ndarray | None = None,
+) -> list[Slips]:
+    """The valve model's own slips from the drive, anchored to the slips read from the data; per candidate.
+
+    For each candidate valve (arrays over candidates) the stem sits where it landed and slips
+    wherever the drive leaves the band around it.  A slip read from the data that the model
+    does not make within ``window`` samples of it is made there anyway.  After a slip the
+    data confirms, the stem continues from the data's estimate of where it landed
+    (``read_levels``, % of OP), as an observer would: the model's errors in one slip's timing
+    and landing do not carry into the next, while the landings it predicts (``landing_drive``)
+    are what the least squares judge.
+    """
+    n_cand, n = band.size, drive.end.size
+    level = level0.astype(float).copy()
+    used = np.zeros((n_cand, read.at.size), bool)
+    events: list[list[tuple]] = [[] for _ in range(n_cand)]
+    anchor_of = {int(k): j for j, k in enumerate(read.at)}
+    for k in range(1, n):
+        gap = drive.end[k] - level
+        slipped = np.abs(gap) > band
+        forced = np.zeros(n_cand, bool)
+        j_anchor = anchor_of.get(k)
+        if j_anchor is not None:
+            d_a = read.directions[j_anchor]
+            ahead = drive.end[k + 1 : k + 1 + window]
+            soon = (
+                np.any(d_a * (ahead[None, :] - level[:, None]) > band[:, None], axis=1)
+                if ahead.size
+                else np.zeros(n_cand, bool)
+            )
+            forced = ~slipped & ~used[:, j_anchor] & ~soon
+        act = slipped | forced
+        if not act.any():
+            continue
+        idx = np.flatnonzero(act)
+        d = np.where(slipped[idx], np.sign(gap[idx]), 0 if j_anchor is None else read.directions[j_anchor]).astype(int)
+        brk, land = _breaks(drive, k, level[idx], d, band[idx])
+        brk = np.where(forced[idx], 0.0, brk)
+        land = np.where(forced[idx], drive.mean[k], land)
+        new_level = land - d * stop[idx]
+        near = np.flatnonzero(np.abs(read.at - k) <= window)
+        for pos, (i, di, bi, li, fi) in enumerate(zip(idx, d, brk, land, forced[idx], strict=True)):
+            events[i].append((k, di, bi, li, bool(fi)))
+            match = [j for j in near if read.directions[j] == di and not used[i, j]]
+            if match:
+                j = min(match, key=lambda j: abs(read.at[j] - k))
+                used[i, j] = True
+                if read_levels is not None:
+                    new_level[pos] = read_levels[j]
+        level[idx] = new_level
+    out = []
+    for ev in events:
+        if ev:
+            at, dirs, brk, land, rd = (np.array(x) for x in zip(*ev, strict=True))
+        else:
+            at, dirs, brk, land, rd = (np.zeros(0, t) for t in (int, int, float, float, bool))
+        out.append(Slips(at.astype(int), dirs.astype(int), brk.astype(float), land.astype(float), rd.astype(bool)))
+    return out
+
+
+def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.ndarray):
+    """(fraction of interval k before the break, drive at the break) for stems at ``level`` slipping in ``d``."""
+    if not drive.moves:
+        return np.zeros(level.size), np.full(level.size, drive.mean[k])
+    start, end = drive.start[k], drive.end[k]
+    threshold = level + d * band
+    frac = np.clip((threshold - start) / (end - start), 0.0, 1.0) if end != start else np.zeros(level.size)
+    return frac, start + frac * (end - start)
+
+
+def _batch_fit(
+    record: Record, hyp: Hypothesis, regs: np.ndarray, tf: TransferFunction, q: np.ndarray, nominal_gain: float
+):
+    """Least squares of every candidate's regressors [C, 3, N] at once: (rss [C], coef [C, p])."""
+    x = project_out(record.compared(tf.response(regs)).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 3, -1)
+    y = project_out(record.target[None, :], q)[0]
+    if hyp.gain_free:
+        target, cols = np.broadcast_to(y, (regs.shape[0], y.size)), x
+    else:
+        target, cols = y[None, :] - nominal_gain * x[:, 0], x[:, 1:]
+    gram = np.einsum("cin,cjn->cij", cols, cols)
+    rhs = np.einsum("cin,cn->ci", cols, target)
+    ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(gram.shape[1])
+    coef = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
+    resid = target - np.einsum("ci,cin->cn", coef, cols)
+    return np.einsum("cn,cn->c", resid, resid), coef
+
+
+def _stop_level0(hyp: Hypothesis, coef: np.ndarray, nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:
+    if hyp.gain_free:
+        g, gs, gl = coef[:, 0], coef[:, 1], coef[:, 2]
+    else:
+        g = np.full(coef.shape[0], nominal_gain)
+        gs, gl = coef[:, 0] * nominal_gain, coef[:, 1] * nominal_gain
+    g = np.where(g == 0, np.nan, g)
+    return -gs / g, gl / g
+
+
+S_GRID = np.linspace(-0.2, 0.2, 21)
+S_FINE = np.linspace(-0.025, 0.025, 11)
+WALK_ITERATIONS = 2
+RESYNC_LEVELS = False
+"""Continue after a confirmed slip from the data's landing estimate (an observer); off: from the model's."""
+
+
+def criterion(rss: np.ndarray | float, n_params: np.ndarray | int, n: int) -> np.ndarray | float:
+    """Schwarz's criterion (BIC) of Gaussian residuals: every parameter must buy log(n) of n log(RSS)."""
+    return n * np.log(np.maximum(rss, 1e-300) / n) + n_params * np.log(n)
+
+
+def _own_params(hyp: Hypothesis) -> int:
+    d = hyp.dynamics
+    return (
+        int(d.time_constant_s is not None)
+        + int(d.dead_time_s > 0)
+        + int(d.sensor_tau_s > 0)
+        + int(hyp.actuator_tau_s > 0)
+        + int(hyp.osc_period_s is not None)
+    )
+
+
+def fit_valve(
+    record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float = 1.0, search: bool = True
+) -> ValveFit:
+    """The valve-model fit under ``hyp``.
+
+    The slips read from the data (``path``) start it; then (``search``) the band S is searched:
+    for each candidate the valve model decides its own slips from the drive (``walk``), and a
+    read slip the model does not make is forced, at the price of a parameter.  The least
+    squares re-solve stop and the gain for every candidate; the criterion picks the band.
+    """
     tf = transfer_function(hyp.dynamics, record.ts_s)
     omega = 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None
     q = nuisance_basis(record, tf, omega)
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-    y = record.target
     if hyp.linear_valve:
         x = record.compared(tf.response(drive.mean[None, :]))
-        if hyp.gain_free:
-            fit = solve(y, x, q)
-            g, g_se = float(fit.coef[0]), float(np.sqrt(fit.cov[0, 0]))
-        else:
-            fit = solve(y - nominal_gain * x[0], np.zeros((0, y.size)), q)
-            fit = LinearFit(fit.rss, fit.n_params, fit.coef, fit.cov, fit.prediction + nominal_gain * x[0], fit.sigma2)
-            g, g_se = nominal_gain, 0.0
-        return ValveFit(hyp, path, fit, g, g_se, 0.0, 0.0, tf)
-    x = record.compared(tf.response(path_regressors(path, drive, record.n, record.ts_s)))
-    if hyp.gain_free:
-        fit = solve(y, x, q)
-        g, gs = fit.coef[0], fit.coef[1]
-        stop = -gs / g if g != 0 else np.nan
-        jac = np.array([gs / g**2, -1.0 / g])  # d stop / d (g, g*stop coefficient)
-        stop_se = float(np.sqrt(max(jac @ fit.cov[:2, :2] @ jac, 0.0)))
-        g_se = float(np.sqrt(fit.cov[0, 0]))
-    else:
-        fit = solve(y - nominal_gain * x[0], x[1:], q)
-        fit = LinearFit(fit.rss, fit.n_params, fit.coef, fit.cov, fit.prediction + nominal_gain * x[0], fit.sigma2)
-        g, g_se = nominal_gain, 0.0
-        stop = -fit.coef[0] / g
-        stop_se = float(np.sqrt(fit.cov[0, 0])) / abs(g)
-    return ValveFit(hyp, path, fit, float(g), g_se, float(stop), stop_se, tf)
+        fit = _linear_fit(record, hyp, np.concatenate([x, np.zeros((2, x.shape[1]))]), q, nominal_gain)
+        g = float(fit.coef[0]) if hyp.gain_free else nominal_gain
+        g_se = float(np.sqrt(fit.cov[0, 0])) if hyp.gain_free else 0.0
+        empty = Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
+        return ValveFit(hyp, empty, fit, g, g_se, 0.0, 0.0, np.nan, tf, 0.0, 0.0)
+    read = Slips.from_path(path, drive)
+    best = _finish(record, hyp, read, tf, q, nominal_gain)
+    if best.gain_ratio < 0:  # a reverse-acting process: PV falls as the stem opens
+        path = StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
+        read = Slips.from_path(path, drive)
+        best = _finish(record, hyp, read, tf, q, nominal_gain)
+    band0, band0_se, _ = _band(best, drive)
+    best = replace(best, band_pct=band0, band_se=band0_se)
+    if not (
+        search and np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct) and np.isfinite(best.level0_pct)
+    ):
+        return best
+    window = 2 + int(round(hyp.dynamics.sensor_tau_s / record.ts_s))
+    read_levels = _read_levels(path, best) if RESYNC_LEVELS else None
+    n, fixed = record.n_fit, best.fit.n_params + _own_params(hyp)
+    tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
+    winner = (np.inf, read)
+    for grid in (S_GRID, S_FINE):
+        centre = band0 if not np.isfinite(winner[0]) else winner[0]
+        bands = centre * (1 + grid)
+        stops, levels = np.full(bands.size, best.stop_pct), np.full(bands.size, best.level0_pct)
+        for _ in range(WALK_ITERATIONS):
+            cands = walk(read, drive, bands, stops, levels, window, read_levels)
+            regs = np.stack([path_regressors(c, record.n, record.ts_s) for c in cands])
+            rss, coef = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
+            new_stops, new_levels = _stop_level0(hyp, coef, nominal_gain)
+            ok = np.isfinite(new_stops) & np.isfinite(new_levels)
+            stops, levels = np.where(ok, new_stops, stops), np.where(ok, new_levels, levels)
+        ic = criterion(rss, fixed + np.array([c.read.sum() for c in cands]), n)
+        tried_band.extend(bands), tried_ic.extend(ic)
+        i = int(np.argmin(ic))
+        if ic[i] < min(tried_ic[: -bands.size]):
+            winner = (float(bands[i]), cands[i])
+    if not np.isfinite(winner[0]):
+        return best
+    band, slips = winner
+    fitted = _finish(record, hyp, slips, tf, q, nominal_gain)
+    tried_band, tried_ic = np.array(tried_band[1:]), np.array(tried_ic[1:])
+    inside = tried_band[tried_ic - tried_ic.min() <= 1.0]
+    step = float(abs(S_FINE[1] - S_FINE[0]) * band)
+    band_se = float(max(inside.max() - inside.min(), step) / 2) if inside.size > 1 else step
+    return replace(fitted, band_pct=band, band_se=band_se)
+
+
+def _read_levels(path: StemPath, first: ValveFit) -> np.ndarray | None:
+    """Where the data say the stem landed after each read slip, in % of OP.
+
+    The input estimate's levels are ``g (M - b)``: the first fit gives ``g``, and ``b`` is
+    the offset that best aligns them with the landings it predicts.
+    """
+    if not (np.isfinite(first.gain_ratio) and first.gain_ratio != 0 and path.slips.size):
+        return None
+    data = path.levels[1:] / first.gain_ratio
+    model = first.slips.landing_drive - first.slips.directions * first.stop_pct
+    return data + float(np.median(model - data))
+
+
+def refit(record: Record, hyp: Hypothesis, slips: Slips) -> ValveFit | None:
+    """``hyp``'s linear fit with the given slips (their landings taken from its own drive)."""
+    if hyp.linear_valve or slips.at.size == 0:
+        return None
+    tf = transfer_function(hyp.dynamics, record.ts_s)
+    omega = 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None
+    q = nuisance_basis(record, tf, omega)
+    drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
+    if hyp.actuator_tau_s > 0 or np.any(slips.breaks):
+        slips = replace(slips, breaks=np.zeros(slips.at.size), landing_drive=drive.mean[slips.at])
+    vf = _finish(record, hyp, slips, tf, q, 1.0)
+    band, band_se, _ = _band(vf, drive)
+    return replace(vf, band_pct=band, band_se=band_se)
+
+
+def _finish(record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float) -> ValveFit:
+    """The full linear fit (with covariance) for one set of slips."""
+    x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s)))
+    fit = _linear_fit(record, hyp, x, q, nominal_gain)
+    g, g_se, stop, stop_se, level0 = _valve_from_fit(hyp, fit, nominal_gain)
+    return ValveFit(hyp, slips, fit, g, g_se, stop, stop_se, level0, tf)
+
+
+def _robust_se(x: np.ndarray) -> float:
+    """Standard error of a median from the MAD (normal efficiency factor 1.25)."""
+    mad = 1.4826 * np.median(np.abs(x - np.median(x)))
+    return 1.25 * mad / np.sqrt(x.size)
+
+
+def _band(vf: ValveFit, drive: Drive, stop: float | None = None) -> tuple[float, float, int]:
+    """The band S from the read slips' brackets, given where the stem landed: (median, its SE, slips read)."""
+    stop = vf.stop_pct if stop is None else stop
+    s = vf.slips
+    if s.at.size < 3:
+        return np.nan, np.nan, 0
+    landed = s.landing_drive - s.directions * stop
+    k = s.at[1:]
+    use = s.read[1:] & (k >= 1)
+    prev_level = landed[:-1][use]
+    before = np.abs(drive.end[k[use] - 1] - prev_level)
+    after = np.abs(drive.end[k[use]] - prev_level)
+    mid = 0.5 * (before + after)
+    if mid.size < 2:
+        return np.nan, np.nan, 0
+    return float(np.median(mid)), _robust_se(mid), int(mid.size)
 
 
 @dataclass(frozen=True)
@@ -183,109 +459,25 @@ class Friction:
     slips_read: int
 
 
-def _robust_se(x: np.ndarray) -> float:
-    """Standard error of a median from the MAD (normal efficiency factor 1.25)."""
-    mad = 1.4826 * np.median(np.abs(x - np.median(x)))
-    return 1.25 * mad / np.sqrt(x.size)
-
-
-def _band(stop: float, path: StemPath, drive: Drive) -> tuple[float, float, int]:
-    """The band S from the slips' brackets, given where the stem landed: (median, its SE, slips read)."""
-    slips, dirs = path.slips, path.directions
-    if slips.size < 3:
-        return np.nan, np.nan, 0
-    landed = drive.mean[slips] - dirs * stop
-    prev_level = landed[:-1]
-    k = slips[1:]
-    ok = k >= 1
-    before = np.abs(drive.end[k[ok] - 1] - prev_level[ok])
-    after = np.abs(drive.end[k[ok]] - prev_level[ok])
-    mid = 0.5 * (before + after)
-    if mid.size < 2:
-        return np.nan, np.nan, 0
-    return float(np.median(mid)), _robust_se(mid), int(mid.size)
-
-
 def friction(vf: ValveFit, record: Record) -> Friction:
-    """S from the brackets, J = S - stop, with the stop's uncertainty carried through."""
-    drive = drive_of(record.op_pct, vf.hypothesis.actuator_tau_s, record.ts_s)
-    s, s_se_brackets, n = _band(vf.stop_pct, vf.path, drive)
+    """S (searched, or from the brackets), J = S - stop, with their standard errors."""
+    s, s_se = vf.band_pct, vf.band_se
     if not np.isfinite(s) or not np.isfinite(vf.stop_pct):
         nan = float("nan")
-        return Friction(nan, nan, nan, nan, nan, nan, nan, nan, n)
-    eps = max(1e-3, 0.01 * abs(vf.stop_pct))
-    ds = (_band(vf.stop_pct + eps, vf.path, drive)[0] - _band(vf.stop_pct - eps, vf.path, drive)[0]) / (2 * eps)
-    s_se = float(np.hypot(s_se_brackets, ds * vf.stop_se))
+        return Friction(nan, nan, nan, nan, nan, nan, nan, nan, int(vf.slips.read.sum()))
     j = s - vf.stop_pct
-    j_se = float(np.hypot(s_se_brackets, (ds - 1) * vf.stop_se))
+    j_se = float(np.hypot(s_se, vf.stop_se))
     fs = s * PCT_OF_500LBF_PER_PCT
     stop_lbf = pct_to_lbf(vf.stop_pct * PCT_OF_500LBF_PER_PCT)
     fd_lbf = stop_lbf - VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs) - stop_lbf)
-    fd = float(lbf_to_pct(fd_lbf))
     return Friction(
-        float(s), float(j), s_se, j_se, float(fs), fd, s_se * PCT_OF_500LBF_PER_PCT,
-        vf.stop_se * PCT_OF_500LBF_PER_PCT, n,
+        float(s),
+        float(j),
+        float(s_se),
+        j_se,
+        float(fs),
+        float(lbf_to_pct(fd_lbf)),
+        s_se * PCT_OF_500LBF_PER_PCT,
+        vf.stop_se * PCT_OF_500LBF_PER_PCT,
+        int(vf.slips.read.sum()),
     )
-
-
-REFINE_SHIFTS = (-2, -1, 1, 2)
-
-
-def refine_slips(record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float = 1.0, sweeps: int = 2) -> StemPath:
-    """Move each slip by up to two samples where that lowers the fit's residual (one slip at a time, batched).
-
-    The segmentation reads slips through a smeared inverse (sensor lags, sampling zeros); under the
-    hypothesis's exact model a slip placed a sample late costs a large residual at that sample.
-    """
-    if path.slips.size == 0 or hyp.linear_valve:
-        return path
-    tf = transfer_function(hyp.dynamics, record.ts_s)
-    omega = 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None
-    q = nuisance_basis(record, tf, omega)
-    drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-    y = project_out(record.target[None, :], q)[0]
-    slips = path.slips.copy()
-    for _ in range(sweeps):
-        variants, owners = [], []
-        for j in range(slips.size):
-            lo = slips[j - 1] + 1 if j else 1
-            hi = slips[j + 1] - 1 if j + 1 < slips.size else record.n - 1
-            for d in REFINE_SHIFTS:
-                if lo <= slips[j] + d <= hi:
-                    s = slips.copy()
-                    s[j] += d
-                    variants.append(s)
-                    owners.append((j, d))
-        if not variants:
-            break
-        all_slips = [slips, *variants]
-        regs = np.stack([path_regressors(path.with_slips(s), drive, record.n, record.ts_s) for s in all_slips])
-        x = project_out(record.compared(tf.response(regs)).reshape(-1, y.size), q).reshape(len(all_slips), 3, -1)
-        if hyp.gain_free:
-            target = np.broadcast_to(y, (len(all_slips), y.size))
-            cols = x
-        else:
-            target = y[None, :] - nominal_gain * x[:, 0]
-            cols = x[:, 1:]
-        gram = np.einsum("bin,bjn->bij", cols, cols)
-        rhs = np.einsum("bin,bn->bi", cols, target)
-        coef = np.linalg.lstsq(gram[0], rhs[0], rcond=None)[0][None, :] if False else None
-        coef = np.stack([np.linalg.lstsq(g, r, rcond=None)[0] for g, r in zip(gram, rhs, strict=True)])
-        resid = target - np.einsum("bi,bin->bn", coef, cols)
-        rss = np.einsum("bn,bn->b", resid, resid)
-        best = {}
-        for (j, d), r in zip(owners, rss[1:], strict=True):
-            if r < rss[0] and (j not in best or r < best[j][1]):
-                best[j] = (d, r)
-        if not best:
-            break
-        # apply the independent improvements, keeping slips in order
-        new = slips.copy()
-        for j, (d, _) in best.items():
-            new[j] += d
-        if np.any(np.diff(new) <= 0):
-            j = min(best, key=lambda k: best[k][1])
-            new = slips.copy()
-            new[j] += best[j][0]
-        slips = new
-    return path.with_slips(slips)

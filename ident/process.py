@@ -58,6 +58,11 @@ class TransferFunction:
 
     def free_responses(self, n: int) -> np.ndarray:
         """[S, N] ``C Phi^k e_i`` for each state i: the output of an initial state, sample by sample."""
+        lam, v = np.linalg.eig(self.phi)
+        if np.min(np.abs(np.subtract.outer(lam, lam)) + np.eye(lam.size)) > 1e-6:
+            # distinct eigenvalues: Phi^k = V diag(lam^k) V^-1
+            powers = np.power.outer(lam, np.arange(n))  # [S, N]
+            return np.real(np.einsum("j,jk,ji->ik", self.c @ v, powers, np.linalg.inv(v)))
         out = np.empty((self.phi.shape[0], n))
         x = np.eye(self.phi.shape[0])
         for k in range(n):

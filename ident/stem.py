@@ -23,7 +23,7 @@ SEGMENT_PENALTY = 2.0
 """Penalty per piece in units of the input estimate's noise variance times log(N) (BIC: level and place)."""
 MIN_JUMP_SD = 3.0
 """A piece whose level differs from its predecessor's by less than this many standard errors is no slip."""
-SENSOR_SHARPEN = 0.3
+SENSOR_SHARPEN = 0.5
 
 
 @dataclass(frozen=True)
@@ -72,24 +72,100 @@ def input_estimate(pv: np.ndarray, dynamics: Dynamics, ts_s: float) -> tuple[np.
     return u, k0, pv_noise_sd(pv) * float(np.sqrt(np.sum(c * c)))
 
 
-def read_paths(pv: np.ndarray, dynamics: list[Dynamics], ts_s: float) -> list[StemPath]:
-    """One stem path per hypothesis; the segmentations run as one batch where lengths agree."""
-    estimates = [input_estimate(pv, d, ts_s) for d in dynamics]
-    out: list[StemPath | None] = [None] * len(dynamics)
-    groups: dict[int, list[int]] = {}
-    for i, (u, _, _) in enumerate(estimates):
-        groups.setdefault(u.size, []).append(i)
-    for idx in groups.values():
-        u = np.stack([estimates[i][0] for i in idx])
-        # a floor for noise-free records: steps of a millionth of the signal's range are no slips
-        sd = np.maximum([estimates[i][2] for i in idx], 1e-6 * np.ptp(u, axis=1))
-        ends = segment_ends(u, SEGMENT_PENALTY * sd**2 * np.log(u.shape[1]) + 1e-12)
-        for row, i in enumerate(idx):
-            out[i] = _path(u[row], estimates[i][1], ends[row], float(sd[row]))
+def without_sine(u: np.ndarray, period_s: float, ts_s: float) -> np.ndarray:
+    """``u`` less its least-squares sine of ``period_s``: an external load is no movement of the stem."""
+    t = np.arange(u.size) * ts_s
+    x = np.stack([np.sin(2 * np.pi * t / period_s), np.cos(2 * np.pi * t / period_s), np.ones(u.size)], axis=1)
+    coef, *_ = np.linalg.lstsq(x, u, rcond=None)
+    return u - x[:, :2] @ coef[:2]
+
+
+LOAD_ITERATIONS = 3
+
+
+def _pieces(u: np.ndarray, sd: float) -> np.ndarray:
+    """The optimal piecewise-constant approximation of ``u``."""
+    sd = max(sd, 1e-6 * float(np.ptp(u)))
+    ends = segment_ends(u[None, :], np.array([SEGMENT_PENALTY * sd**2 * np.log(u.size) + 1e-12]))[0]
+    out = np.empty_like(u)
+    start = 0
+    for e in ends:
+        out[start:e] = u[start:e].mean()
+        start = e
     return out
 
 
-def _path(u: np.ndarray, k0: int, ends: list[int], noise_sd: float) -> StemPath:
+def _without_load(u: np.ndarray, k0: int, sd: float, period_s: float, ts_s: float):
+    """The input estimate less an external sine load, separated from the stem's pieces by alternation.
+
+    Removing the sine from ``u`` directly would take the stem's own square wave with it when the
+    load has entrained the limit cycle; fitting it to what the pieces leave does not.
+    """
+    load = np.zeros_like(u)
+    for _ in range(LOAD_ITERATIONS):
+        pieces = _pieces(u - load, sd)
+        load = (u - pieces) - without_sine(u - pieces, period_s, ts_s)
+    return u - load, k0, sd
+
+
+class StemReader:
+    """Stem paths of one record under many hypotheses.
+
+    The inverse filter depends on the process's and the sensor's poles only; a dead time just
+    shifts the recovered input, so one segmentation serves every dead time (rounded to samples).
+    """
+
+    def __init__(self, pv: np.ndarray, ts_s: float):
+        self.pv, self.ts_s = np.asarray(pv, float), ts_s
+        self.noise_sd = pv_noise_sd(self.pv)
+        self._segmented: dict[tuple, tuple[np.ndarray, list[int], float, int]] = {}
+
+    def paths(self, keys: list[tuple[Dynamics, float | None]]) -> list[StemPath]:
+        """One path per (dynamics, external oscillation period or None)."""
+        seg_keys = [(d.time_constant_s, d.sensor_tau_s, p) for d, p in keys]
+        missing = list(dict.fromkeys(k for k in seg_keys if k not in self._segmented))
+        if missing:
+            self._segment(missing)
+        out = []
+        for (d, _), sk in zip(keys, seg_keys, strict=True):
+            filtered, ends, sd, taps = self._segmented[sk]
+            _, shift = inverse_filter(d, self.ts_s)
+            out.append(_path(filtered, taps - 1 - shift, ends, sd, self.pv.size))
+        return out
+
+    def _segment(self, keys: list[tuple]) -> None:
+        rows = []
+        for tau, sensor, period in keys:
+            c, _ = inverse_filter(Dynamics(tau, 0.0, sensor), self.ts_s)
+            filtered = np.convolve(
+                self.pv, c, mode="valid"
+            )  # filtered[i] holds the input of interval i + len(c) - 1 - shift
+            sd = self.noise_sd * float(np.sqrt(np.sum(c * c)))
+            if period:
+                filtered = _without_load(filtered, 0, sd, period, self.ts_s)[0]
+            # a floor for noise-free records: steps of a millionth of the signal's range are no slips
+            rows.append((filtered, max(sd, 1e-6 * float(np.ptp(filtered))), c.size))
+        groups: dict[int, list[int]] = {}
+        for i, (f, _, _) in enumerate(rows):
+            groups.setdefault(f.size, []).append(i)
+        for idx in groups.values():
+            u = np.stack([rows[i][0] for i in idx])
+            sd = np.array([rows[i][1] for i in idx])
+            ends = segment_ends(u, SEGMENT_PENALTY * sd**2 * np.log(u.shape[1]) + 1e-12)
+            for row, i in enumerate(idx):
+                self._segmented[keys[i]] = (rows[i][0], ends[row], float(sd[row]), rows[i][2])
+
+
+def read_paths(
+    pv: np.ndarray, dynamics: list[Dynamics], ts_s: float, osc_periods_s: list[float | None] | None = None
+) -> list[StemPath]:
+    """One stem path per hypothesis (see ``StemReader``)."""
+    periods = osc_periods_s or [None] * len(dynamics)
+    return StemReader(pv, ts_s).paths(list(zip(dynamics, periods, strict=True)))
+
+
+def _path(u: np.ndarray, k0: int, ends: list[int], noise_sd: float, n: int | None = None) -> StemPath:
+    """Slips from a segmentation of ``u``, whose sample i is the input of interval ``i + k0`` (of ``n``)."""
     bounds = [0, *ends]
     # the interval in which the stem slips carries a mean between the two levels: a piece of one
     # sample between its neighbours belongs to the piece after it (the slip happened in it)
@@ -111,4 +187,9 @@ def _path(u: np.ndarray, k0: int, ends: list[int], noise_sd: float) -> StemPath:
         levels.append(level)
     slips = np.array(starts[1:], dtype=int) + k0
     levels = np.array(levels)
+    keep = (slips >= 1) & (slips < (n if n is not None else np.inf))
+    # pieces whose slip falls outside the record merge into their neighbour
+    first = int(np.argmax(keep)) if keep.any() else slips.size
+    levels = np.concatenate([levels[first : first + 1], levels[1:][keep]]) if keep.any() else levels[:1]
+    slips = slips[keep]
     return StemPath(slips, np.sign(np.diff(levels)).astype(int), levels, noise_sd)

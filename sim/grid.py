@@ -73,3 +73,54 @@ def random_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
         d = random_disturbance(rng) if noisy else None
         specs.append(LoopSpec(fs, fd, disturbance=d, seed=int(rng.integers(2**31))))
     return specs
+
+
+EFFECT_RANGES: dict[str, dict[str, tuple[float, float]]] = {
+    "none": {},
+    "dead_time": {"dead_time_s": (1.0, 5.0)},
+    "deadband": {"deadband_pct": (2.0, 10.0)},
+    "actuator_lag": {"actuator_tau_s": (1.5, 8.0)},
+    "sensor_lag": {"sensor_tau_s": (1.5, 8.0)},
+    "quantization": {"quantum_pct": (0.1, 0.4)},
+    "process_gain": {"gain_ratio": (0.5, 2.0)},
+    "external_oscillation": {"osc_period_s": (25.0, 200.0), "osc_amplitude_pct": (0.5, 3.0)},
+    "process_type": {"time_constant_s": (20.0, 200.0)},
+}
+"""Magnitudes of each catalogue cause in generated loops: large enough to matter, within the level loop's reach
+(its delay margin is about 6 s; lags past 10 s leave it lightly damped, spec/thesis-loop.md)."""
+
+
+def effect_loops(cause: str, n: int, seed: int, noise: tuple[float, float] = (0.01, 0.04)) -> list[LoopSpec]:
+    """Canonical loops with one hidden effect of ``cause`` each, at random magnitudes, fs/fd and noise.
+
+    The noise is white on PV at ``noise`` times its clean RMS (the controller sees it too).
+    A process gain is drawn log-uniformly outside 0.8..1.25, so that there is an effect to find.
+    """
+    from sim.extensions import Extensions
+
+    rng = np.random.default_rng(seed)
+    specs = []
+    for _ in range(n):
+        fs = float(rng.uniform(15, 90))
+        fd = float(fs * rng.uniform(0.1, 0.8))
+        params = {}
+        for name, (lo, hi) in EFFECT_RANGES[cause].items():
+            if name == "gain_ratio":
+                v = float(np.exp(rng.uniform(np.log(0.8), np.log(2.0))))
+                params[name] = v if rng.random() < 0.5 else 1.0 / v
+                params[name] = float(np.clip(params[name], lo, hi))
+                if 0.8 < params[name] < 1.25:
+                    params[name] = 1.25 if params[name] > 1 else 0.8
+            else:
+                params[name] = float(rng.uniform(lo, hi))
+        coefficient = float(rng.uniform(*noise))
+        specs.append(
+            LoopSpec(
+                fs,
+                fd,
+                disturbance=Disturbance("gaussian", "output", coefficient) if coefficient > 0 else None,
+                extensions=Extensions(**params),
+                seed=int(rng.integers(2**31)),
+            )
+        )
+    return specs
