@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ident import lattice
+from ident import fit, lattice
 from ident.fit import Friction, Hypothesis, ValveFit, criterion, fit_valve, friction
 from ident.process import Dynamics
 from ident.record import Record
@@ -42,6 +42,7 @@ class Model:
     causes: tuple[str, ...] = ()
     quantum_pct: float | None = None
     rss_override: float | None = None
+    load_amplitude_pct: float = float("nan")
 
     @property
     def rss(self) -> float:
@@ -105,7 +106,7 @@ def cause_parameters(model: Model) -> dict[str, float]:
             out["gain_ratio"] = model.fit.gain_ratio
         elif cause == "external_oscillation":
             out["osc_period_s"] = float(h.osc_period_s)
-            out["osc_amplitude_pct"] = oscillation_amplitude_pct(model.fit)
+            out["osc_amplitude_pct"] = model.load_amplitude_pct
         elif cause == "quantization":
             out["quantum_pct"] = float(model.quantum_pct)
     return out
@@ -126,12 +127,12 @@ APPLY: dict[str, Callable[[Hypothesis, float], Hypothesis]] = {
 
 def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
     ts, span = record.ts_s, record.n * record.ts_s
-    if cause == "dead_time":
-        return ts * np.array([0.5, 1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12])
+    if cause == "dead_time":  # fine: a fractional delay splits every slip's flow between two samples
+        return ts * np.arange(0.1, 12.01, 0.1)
     if cause in ("sensor_lag", "actuator_lag"):
-        return ts * np.array([0.5, 1, 1.5, 2, 3, 4, 6, 8, 12, 16])
+        return ts * np.geomspace(0.3, 20, 18)
     if cause == "process_type":
-        return np.geomspace(2 * ts, span / 3, 12)
+        return np.geomspace(2 * ts, span / 3, 16)
     if cause == "process_gain":
         return np.array([1.0])
     if cause == "external_oscillation":
@@ -183,7 +184,7 @@ class Fitter:
         out = []
         keys = [(h.dynamics, h.osc_period_s if own_paths else None) for h in hyps]
         for h, p in zip(hyps, self.paths(keys), strict=True):
-            vf = fit_valve(self.record, h, p, search=False)
+            vf = fit_valve(self.record, h, p, search="read")
             out.append((vf, criterion(vf.rss, vf.n_params, self.record.n_fit)))
         return out
 
@@ -194,12 +195,13 @@ class Fitter:
         return refit(self.record, hyp, slips)
 
     def full(self, hyp: Hypothesis) -> tuple[ValveFit, float]:
-        vf = fit_valve(self.record, hyp, self.paths([(hyp.dynamics, hyp.osc_period_s)])[0], search=True)
+        vf = fit_valve(self.record, hyp, self.paths([(hyp.dynamics, hyp.osc_period_s)])[0], search="full")
         return vf, criterion(vf.rss, vf.n_params, self.record.n_fit)
 
 
-FULL_FITS_PER_CAUSE = 2
-CAUSES_FITTED_IN_FULL = 3
+FULL_FITS_PER_CAUSE = 3
+CAUSES_FITTED_IN_FULL = 2
+MAX_FULL_CAUSES = 4
 
 
 @dataclass(frozen=True)
@@ -220,16 +222,27 @@ def _screen(fitter: Fitter, cause: str, current: Model) -> Screened | None:
     return Screened(cause, grid, np.array([ic for _, ic in scored]), [vf for vf, _ in scored])
 
 
+def _local_minima(c: np.ndarray, count: int) -> list[int]:
+    """Indices of the ``count`` lowest local minima of ``c``."""
+    if c.size == 1:
+        return [0]
+    left = np.concatenate([[np.inf], c[:-1]])
+    right = np.concatenate([c[1:], [np.inf]])
+    idx = np.flatnonzero((c <= left) & (c <= right))
+    return [int(i) for i in idx[np.argsort(c[idx])][:count]]
+
+
 def _fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
-    """The best few values of a screened cause, and points beside the best, fitted in full."""
-    order = np.argsort(sc.criteria)
-    values = [float(sc.grid[i]) for i in order[:FULL_FITS_PER_CAUSE]]
+    """The screening curve's best local minima, and points beside the best, fitted in full."""
+    minima = _local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
+    values = [float(sc.grid[i]) for i in minima]
     if sc.cause != "process_gain" and sc.grid.size > 1:
-        values += [float(v) for v in _between(sc.grid, int(order[0]))]
+        values += [float(v) for v in _between(sc.grid, minima[0])]
     fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v))) for v in dict.fromkeys(values)]
     value, vf, ic = min(fits, key=lambda f: f[2])
     hyp = APPLY[sc.cause](current.hypothesis, value)
-    return Model(hyp, vf, ic, (*current.causes, sc.cause), current.quantum_pct)
+    amplitude = fit.load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
+    return Model(hyp, vf, ic, (*current.causes, sc.cause), current.quantum_pct, None, amplitude)
 
 
 def _baseline(fitter: Fitter, current: Model, tried: Model) -> Model:
@@ -247,14 +260,32 @@ def _baseline(fitter: Fitter, current: Model, tried: Model) -> Model:
 SEARCHED = ("process_gain", "process_type", "dead_time", "sensor_lag", "actuator_lag", "external_oscillation")
 
 
+ANCHORS = 8
+
+
 def _quantised(record: Record, current: Model, q: float) -> Model:
-    """The current model's one-sample predictions snapped to the record's lattice."""
+    """The current model's one-sample predictions snapped to the record's lattice.
+
+    A prediction from the last stored PV alone carries that sample's rounding error (up to half a
+    step); the model carries the last ``ANCHORS`` stored samples forward to the same instant and
+    averages them, so that the rounding errors, which differ from sample to sample, average out.
+    """
     origin = float(record.pv_pct[np.argmin(np.abs(record.pv_pct))])
-    h = record.horizon
-    anchor = record.pv_pct[record.skip : record.skip + record.n_fit]  # PV one horizon before each compared sample
-    predicted = lattice.snap(anchor + current.fit.fit.prediction, q, origin)
-    actual = record.pv_pct[record.skip + h : record.skip + h + record.n_fit]
-    rss = float(np.sum((actual - predicted) ** 2))
+    h, start = record.horizon, record.skip
+    pred = current.fit.fit.prediction  # model of PV[k] - PV[k - h] for the compared samples
+    n = pred.size
+    actual = record.pv_pct[start + h : start + h + n]
+    # the model's own trajectory (one-step changes accumulated); offsets between it and the data average
+    traj = np.cumsum(pred)
+    offset = actual - traj
+    kernel = np.ones(ANCHORS) / ANCHORS
+    smoothed = np.convolve(offset, kernel, mode="full")[: offset.size]
+    ready = np.arange(n) >= ANCHORS  # the average of the last ANCHORS offsets, known before sample k
+    level = np.where(ready, np.concatenate([[np.nan], smoothed[:-1]]) + traj, np.nan)
+    predicted = lattice.snap(level, q, origin)
+    err = actual - predicted
+    err = err[ready]
+    rss = float(np.sum(err**2)) * n / max(err.size, 1)
     n_params = current.fit.n_params + 1
     return Model(
         current.hypothesis,
@@ -263,6 +294,7 @@ def _quantised(record: Record, current: Model, q: float) -> Model:
         (*current.causes, "quantization"),
         q,
         rss,
+        current.load_amplitude_pct,
     )
 
 
@@ -272,7 +304,10 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     screened = {c: sc for c in remaining if (sc := _screen(fitter, c, current)) is not None}
     tried = {c: Candidate(c, {}, None, None, None, note="nothing to fit") for c in remaining if c not in screened}
     ranked = sorted(screened, key=lambda c: screened[c].criteria.min())
-    models = {c: _fit_in_full(fitter, screened[c], current) for c in ranked[:CAUSES_FITTED_IN_FULL]}
+    # in full: the best screened few, and every cause whose first-pass fit beats the current model's
+    ((_, current_read),) = fitter.fast([current.hypothesis])
+    chosen = ranked[:CAUSES_FITTED_IN_FULL] + [c for c in ranked if screened[c].criteria.min() < current_read]
+    models = {c: _fit_in_full(fitter, screened[c], current) for c in list(dict.fromkeys(chosen))[:MAX_FULL_CAUSES]}
     # the current model at its best: a cause must not get the credit for a better valve fit its search found
     reference = min([current.criterion, *(_baseline(fitter, current, m).criterion for m in models.values())])
     for c in ranked:
@@ -363,8 +398,3 @@ def _first_look(steps: list[dict[str, Candidate]]) -> dict[str, Candidate]:
     for step in steps:
         out.update(step)
     return out
-
-
-def oscillation_amplitude_pct(vf: ValveFit) -> float:
-    """Amplitude of the external load at the process input, % of span (from the fit's sine at PV)."""
-    return float("nan")  # filled in by ident.report from the explicit sine fit

@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ident import kernels
 from ident.objective import nuisance_basis, project_out
 from ident.process import Dynamics, TransferFunction, transfer_function
 from ident.record import Record
@@ -204,58 +205,34 @@ def walk(
 
     For each candidate valve (arrays over candidates) the stem sits where it landed and slips
     wherever the drive leaves the band around it.  A slip read from the data that the model
-    does not make within ``window`` samples of it is made there anyway.  After a slip the
-    data confirms, the stem continues from the data's estimate of where it landed
-    (``read_levels``, % of OP), as an observer would: the model's errors in one slip's timing
-    and landing do not carry into the next, while the landings it predicts (``landing_drive``)
-    are what the least squares judge.
+    does not make, and will not make within ``window`` samples after it, is made there anyway
+    (forced): the model re-synchronises with the data instead of drifting away from it for
+    the rest of the record.  With ``read_levels`` (% of OP) the stem continues after a slip the
+    data confirm from the data's estimate of where it landed, as an observer would.
+    Compiled (``ident.kernels``); ``tests/ident/walk_reference.py`` is the plain transcription.
     """
-    n_cand, n = band.size, drive.end.size
-    level = level0.astype(float).copy()
-    used = np.zeros((n_cand, read.at.size), bool)
-    events: list[list[tuple]] = [[] for _ in range(n_cand)]
-    anchor_of = {int(k): j for j, k in enumerate(read.at)}
-    for k in range(1, n):
-        gap = drive.end[k] - level
-        slipped = np.abs(gap) > band
-        forced = np.zeros(n_cand, bool)
-        j_anchor = anchor_of.get(k)
-        if j_anchor is not None:
-            d_a = read.directions[j_anchor]
-            ahead = drive.end[k + 1 : k + 1 + window]
-            soon = (
-                np.any(d_a * (ahead[None, :] - level[:, None]) > band[:, None], axis=1)
-                if ahead.size
-                else np.zeros(n_cand, bool)
-            )
-            forced = ~slipped & ~used[:, j_anchor] & ~soon
-        act = slipped | forced
-        if not act.any():
-            continue
-        idx = np.flatnonzero(act)
-        d = np.where(slipped[idx], np.sign(gap[idx]), 0 if j_anchor is None else read.directions[j_anchor]).astype(int)
-        brk, land = _breaks(drive, k, level[idx], d, band[idx])
-        brk = np.where(forced[idx], 0.0, brk)
-        land = np.where(forced[idx], drive.mean[k], land)
-        new_level = land - d * stop[idx]
-        near = np.flatnonzero(np.abs(read.at - k) <= window)
-        for pos, (i, di, bi, li, fi) in enumerate(zip(idx, d, brk, land, forced[idx], strict=True)):
-            events[i].append((k, di, bi, li, bool(fi)))
-            match = [j for j in near if read.directions[j] == di and not used[i, j]]
-            if match:
-                j = min(match, key=lambda j: abs(read.at[j] - k))
-                used[i, j] = True
-                if read_levels is not None:
-                    new_level[pos] = read_levels[j]
-        level[idx] = new_level
-    out = []
-    for ev in events:
-        if ev:
-            at, dirs, brk, land, rd = (np.array(x) for x in zip(*ev, strict=True))
-        else:
-            at, dirs, brk, land, rd = (np.zeros(0, t) for t in (int, int, float, float, bool))
-        out.append(Slips(at.astype(int), dirs.astype(int), brk.astype(float), land.astype(float), rd.astype(bool)))
-    return out
+    counts, at, dirs, brk, land, forced = kernels.walk(
+        drive.start,
+        drive.end,
+        drive.mean,
+        drive.moves,
+        read.at.astype(np.int64),
+        read.directions.astype(np.int64),
+        np.zeros(read.at.size) if read_levels is None else np.asarray(read_levels, float),
+        read_levels is not None,
+        np.asarray(band, float),
+        np.asarray(stop, float),
+        np.asarray(level0, float),
+        int(window),
+    )
+    return [Slips(at[c, :m], dirs[c, :m], brk[c, :m], land[c, :m], forced[c, :m]) for c, m in enumerate(counts)]
+
+
+def _as_slips(ev: list[tuple]) -> Slips:
+    if not ev:
+        return Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
+    at, dirs, brk, land, rd = (np.array(x) for x in zip(*ev, strict=True))
+    return Slips(at.astype(int), dirs.astype(int), brk.astype(float), land.astype(float), rd.astype(bool))
 
 
 def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.ndarray):
@@ -299,6 +276,7 @@ def _stop_level0(hyp: Hypothesis, coef: np.ndarray, nominal_gain: float) -> tupl
 S_GRID = np.linspace(-0.2, 0.2, 21)
 S_FINE = np.linspace(-0.025, 0.025, 11)
 WALK_ITERATIONS = 2
+SEARCH_GRIDS = {"read": (), "quick": (np.array([-0.04, 0.0, 0.04]),), "full": (S_GRID, S_FINE)}
 RESYNC_LEVELS = False
 """Continue after a confirmed slip from the data's landing estimate (an observer); off: from the model's."""
 
@@ -320,11 +298,12 @@ def _own_params(hyp: Hypothesis) -> int:
 
 
 def fit_valve(
-    record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float = 1.0, search: bool = True
+    record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float = 1.0, search: str = "full"
 ) -> ValveFit:
     """The valve-model fit under ``hyp``.
 
-    The slips read from the data (``path``) start it; then (``search``) the band S is searched:
+    The slips read from the data (``path``) start it; then the band S is searched (``search``:
+    "full" on two grids, "quick" just around the brackets' reading, "read" not at all):
     for each candidate the valve model decides its own slips from the drive (``walk``), and a
     read slip the model does not make is forced, at the price of a parameter.  The least
     squares re-solve stop and the gain for every candidate; the criterion picks the band.
@@ -348,16 +327,15 @@ def fit_valve(
         best = _finish(record, hyp, read, tf, q, nominal_gain)
     band0, band0_se, _ = _band(best, drive)
     best = replace(best, band_pct=band0, band_se=band0_se)
-    if not (
-        search and np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct) and np.isfinite(best.level0_pct)
-    ):
+    usable = np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct) and np.isfinite(best.level0_pct)
+    if search == "read" or not usable:
         return best
     window = 2 + int(round(hyp.dynamics.sensor_tau_s / record.ts_s))
     read_levels = _read_levels(path, best) if RESYNC_LEVELS else None
     n, fixed = record.n_fit, best.fit.n_params + _own_params(hyp)
     tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
     winner = (np.inf, read)
-    for grid in (S_GRID, S_FINE):
+    for grid in SEARCH_GRIDS[search]:
         centre = band0 if not np.isfinite(winner[0]) else winner[0]
         bands = centre * (1 + grid)
         stops, levels = np.full(bands.size, best.stop_pct), np.full(bands.size, best.level0_pct)
@@ -481,3 +459,34 @@ def friction(vf: ValveFit, record: Record) -> Friction:
         vf.stop_se * PCT_OF_500LBF_PER_PCT,
         int(vf.slips.read.sum()),
     )
+
+
+def load_amplitude_pct(record: Record, vf: ValveFit) -> float:
+    """Amplitude of the external sine load at the process input, % of span, from an explicit fit.
+
+    The sine and cosine are fitted beside the valve's regressors and the nuisances; their amplitude
+    at PV is carried back through the process's gain at that frequency.
+    """
+    hyp = vf.hypothesis
+    if not hyp.osc_period_s:
+        return float("nan")
+    tf = vf.tf
+    omega = 2 * np.pi / hyp.osc_period_s
+    t = record.t_s
+    sines = record.compared(np.stack([np.sin(omega * t), np.cos(omega * t)]))
+    nuisance = np.concatenate([record.compared(tf.free_responses(record.n)), np.ones((1, record.n_fit))])
+    if hyp.linear_valve or vf.slips.at.size == 0:
+        drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
+        model = record.compared(tf.response(drive.mean[None, :]))
+    else:
+        model = record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s)))
+    y = record.target
+    if not hyp.gain_free:
+        y = y - vf.gain_ratio * model[0]
+        model = model[1:]
+    x = np.concatenate([sines, model, nuisance]).T
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    at_pv = float(np.hypot(coef[0], coef[1]))
+    z = np.exp(-1j * omega * record.ts_s)
+    response = abs(np.polyval(tf.b[::-1], z) / np.polyval(tf.a[::-1], z)) * abs(vf.gain_ratio)
+    return at_pv / response if response > 0 else float("nan")

@@ -137,23 +137,25 @@ class StemReader:
         rows = []
         for tau, sensor, period in keys:
             c, _ = inverse_filter(Dynamics(tau, 0.0, sensor), self.ts_s)
-            filtered = np.convolve(
-                self.pv, c, mode="valid"
-            )  # filtered[i] holds the input of interval i + len(c) - 1 - shift
+            # filtered[i] holds the input of interval i + len(c) - 1 - shift
+            filtered = np.convolve(self.pv, c, mode="valid")
             sd = self.noise_sd * float(np.sqrt(np.sum(c * c)))
             if period:
                 filtered = _without_load(filtered, 0, sd, period, self.ts_s)[0]
             # a floor for noise-free records: steps of a millionth of the signal's range are no slips
             rows.append((filtered, max(sd, 1e-6 * float(np.ptp(filtered))), c.size))
-        groups: dict[int, list[int]] = {}
-        for i, (f, _, _) in enumerate(rows):
-            groups.setdefault(f.size, []).append(i)
-        for idx in groups.values():
-            u = np.stack([rows[i][0] for i in idx])
-            sd = np.array([rows[i][1] for i in idx])
-            ends = segment_ends(u, SEGMENT_PENALTY * sd**2 * np.log(u.shape[1]) + 1e-12)
-            for row, i in enumerate(idx):
-                self._segmented[keys[i]] = (rows[i][0], ends[row], float(sd[row]), rows[i][2])
+        # one batch: shorter rows padded with their last value (a constant tail joins the last piece)
+        width = max(f.size for f, _, _ in rows)
+        u = np.stack([np.pad(f, (0, width - f.size), mode="edge") for f, _, _ in rows])
+        sd = np.array([r[1] for r in rows])
+        ends = segment_ends(u, SEGMENT_PENALTY * sd**2 * np.log(u.shape[1]) + 1e-12)
+        for i, (f, _, taps) in enumerate(rows):
+            self._segmented[keys[i]] = (
+                f,
+                [min(e, f.size) for e in ends[i] if e < f.size] + [f.size],
+                float(sd[i]),
+                taps,
+            )
 
 
 def read_paths(
@@ -167,13 +169,14 @@ def read_paths(
 def _path(u: np.ndarray, k0: int, ends: list[int], noise_sd: float, n: int | None = None) -> StemPath:
     """Slips from a segmentation of ``u``, whose sample i is the input of interval ``i + k0`` (of ``n``)."""
     bounds = [0, *ends]
-    # the interval in which the stem slips carries a mean between the two levels: a piece of one
-    # sample between its neighbours belongs to the piece after it (the slip happened in it)
+    # a jump smeared over two samples (a slip within an interval, a fractional dead time) leaves a
+    # piece of one sample between the two levels: it joins the level it is nearer to, so that the
+    # slip is placed where the jump is half done, whether or not noise split it off
     drop = set()
     for i in range(1, len(bounds) - 2):
         a, b = bounds[i], bounds[i + 1]
         if b - a == 1 and min(u[a - 1], u[b]) < u[a] < max(u[a - 1], u[b]):
-            drop.add(b)
+            drop.add(b if abs(u[a] - u[b]) < abs(u[a] - u[a - 1]) else a)
     bounds = [x for x in bounds if x not in drop]
     starts, levels = [bounds[0]], [u[: bounds[1]].mean()]
     for a, b in zip(bounds[1:-1], bounds[2:], strict=True):

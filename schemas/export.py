@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from schemas.diagnosis import DiagnosisReport
 from schemas.messages import AgentHealth, LoopTruth, SampleBatch
 from schemas.model_card import ModelCard
 from schemas.report import StictionReport
@@ -18,6 +19,7 @@ MODELS = {
     "agent_health": AgentHealth,
     "stiction_report": StictionReport,
     "model_card": ModelCard,
+    "diagnosis_report": DiagnosisReport,
 }
 JSON_DIR = Path(__file__).resolve().parent / "json"
 

@@ -33,3 +33,19 @@ def test_noise_variance_reads_white_noise_through_steps():
     rng = np.random.default_rng(3)
     f = np.repeat([0.0, 5.0, -2.0, 4.0], 500) + rng.normal(0, 0.3, 2000)
     assert noise_variance(f[None, :])[0] == pytest.approx(0.09, rel=0.1)
+
+
+def test_long_series_partition_is_no_worse_than_the_truth():
+    """On a long series the optimal partition costs at most what the true pieces cost."""
+    rng = np.random.default_rng(7)
+    bounds = np.sort(rng.choice(np.arange(10, 990), 20, replace=False))
+    f = np.repeat(rng.normal(0, 4, 21), np.diff(np.concatenate([[0], bounds, [1000]]))) + rng.normal(0, 1, 1000)
+    penalty = 2 * np.log(1000)
+
+    def cost(ends):
+        starts = [0, *ends[:-1]]
+        sse = sum(np.sum((f[a:b] - f[a:b].mean()) ** 2) for a, b in zip(starts, ends, strict=True))
+        return sse + penalty * len(ends)
+
+    found = segment_ends(f[None, :], np.array([penalty]))[0]
+    assert cost(found) <= cost([*bounds.tolist(), 1000]) + 1e-9

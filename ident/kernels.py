@@ -1,0 +1,126 @@
+"""The two sequential recursions of the fits, compiled: the valve's walk and the optimal segmentation.
+
+Both run sample by sample with a decision at each step, which numpy cannot vectorise over
+time; numba compiles them (``cache=True``: once per machine).  Their plain-Python
+transcriptions in ``tests/ident`` are the references they are tested against.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _break(start, end, mean, moves, k, level, d, band):
+    """(fraction of interval k before the break, drive at the break) for a stem at ``level`` slipping in ``d``."""
+    if not moves:
+        return 0.0, mean[k]
+    s, e = start[k], end[k]
+    if e == s:
+        return 0.0, s
+    frac = (level + d * band - s) / (e - s)
+    frac = min(max(frac, 0.0), 1.0)
+    return frac, s + frac * (e - s)
+
+
+@njit(cache=True)
+def walk(start, end, mean, moves, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
+    """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events."""
+    n_cand, n, n_read = band.size, end.size, read_at.size
+    anchor = np.full(n, -1, np.int64)
+    for j in range(n_read):
+        if 0 <= read_at[j] < n:
+            anchor[read_at[j]] = j
+    counts = np.zeros(n_cand, np.int64)
+    at = np.zeros((n_cand, n), np.int64)
+    dirs = np.zeros((n_cand, n), np.int64)
+    brk = np.zeros((n_cand, n))
+    land = np.zeros((n_cand, n))
+    forced = np.zeros((n_cand, n), np.bool_)
+    for c in range(n_cand):
+        level = level0[c]
+        used = np.zeros(n_read, np.bool_)
+        m = 0
+        for k in range(1, n):
+            gap = end[k] - level
+            if abs(gap) > band[c]:
+                d = 1 if gap > 0 else -1
+                f, p = _break(start, end, mean, moves, k, level, d, band[c])
+                at[c, m], dirs[c, m], brk[c, m], land[c, m], forced[c, m] = k, d, f, p, False
+                m += 1
+                level = p - d * stop[c]
+                best, best_dist = -1, window + 1
+                for j in range(n_read):
+                    dist = abs(read_at[j] - k)
+                    if not used[j] and read_dir[j] == d and dist <= window and dist < best_dist:
+                        best, best_dist = j, dist
+                if best >= 0:
+                    used[best] = True
+                    if use_levels:
+                        level = read_levels[best]
+                continue
+            j = anchor[k]
+            if j >= 0 and not used[j]:
+                d = read_dir[j]
+                soon = False
+                for i in range(k + 1, min(k + 1 + window, n)):
+                    g = end[i] - level
+                    if abs(g) > band[c]:
+                        soon = (g > 0) == (d > 0)
+                        break
+                if soon:
+                    continue
+                at[c, m], dirs[c, m], brk[c, m], land[c, m], forced[c, m] = k, d, 0.0, mean[k], True
+                m += 1
+                used[j] = True
+                level = read_levels[j] if use_levels else mean[k] - d * stop[c]
+        counts[c] = m
+    return counts, at, dirs, brk, land, forced
+
+
+@njit(cache=True)
+def segment_row(f, penalty):
+    """Ends of the optimal pieces of ``f`` under ``SSE + penalty * pieces`` (PELT, Killick et al. 2012).
+
+    Pruning with K = 0 keeps it exact for squared error: a start that cannot beat the best
+    partition now never will.
+    """
+    n = f.size
+    c1 = np.zeros(n + 1)
+    c2 = np.zeros(n + 1)
+    for i in range(n):
+        c1[i + 1] = c1[i] + f[i]
+        c2[i + 1] = c2[i] + f[i] * f[i]
+    best = np.empty(n + 1)
+    best[0] = -penalty
+    last = np.zeros(n + 1, np.int64)
+    cand = np.empty(n + 1, np.int64)
+    cost = np.empty(n + 1)
+    n_cand = 1
+    cand[0] = 0
+    for t in range(1, n + 1):
+        b, arg = np.inf, 0
+        for i in range(n_cand):
+            s = cand[i]
+            length = t - s
+            sse = (c2[t] - c2[s]) - (c1[t] - c1[s]) ** 2 / length
+            cost[i] = best[s] + sse
+            if cost[i] + penalty < b:
+                b, arg = cost[i] + penalty, s
+        best[t], last[t] = b, arg
+        kept = 0
+        for i in range(n_cand):
+            if cost[i] <= b:
+                cand[kept] = cand[i]
+                kept += 1
+        cand[kept] = t
+        n_cand = kept + 1
+    ends = np.empty(n, np.int64)
+    m = 0
+    t = n
+    while t > 0:
+        ends[m] = t
+        m += 1
+        t = last[t]
+    return ends[:m][::-1].copy()

@@ -1,0 +1,127 @@
+"""A diagnosis as the report users and programs read (``schemas.diagnosis``): pure assembly."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
+from ident.fit import Friction, ValveFit
+from ident.process import NOMINAL
+from ident.record import Record
+from schemas import diagnosis as schema
+
+
+def _opt(x) -> float | None:
+    return float(x) if x is not None and math.isfinite(float(x)) else None
+
+
+def friction_out(f: Friction) -> schema.Friction:
+    return schema.Friction(
+        s_pct=_opt(f.s_pct),
+        j_pct=_opt(f.j_pct),
+        s_se_pct=_opt(f.s_se_pct),
+        j_se_pct=_opt(f.j_se_pct),
+        fs_pct=_opt(f.fs_pct),
+        fd_pct=_opt(f.fd_pct),
+        fs_se_pct=_opt(f.fs_se_pct),
+        fd_se_pct=_opt(f.fd_se_pct),
+    )
+
+
+def process_out(model: Model, record: Record) -> schema.Process:
+    h, vf = model.hypothesis, model.fit
+    d = h.dynamics
+    rate = vf.gain_ratio * NOMINAL.gain
+    rate_se = vf.gain_se * NOMINAL.gain
+    if d.time_constant_s is None:
+        kind, gain, gain_se = "integrating", rate, rate_se
+    else:
+        # continuous_plant keeps the high-frequency gain: K / (T s + 1) with K = rate * T
+        kind, gain, gain_se = "self_regulating", rate * d.time_constant_s, rate_se * d.time_constant_s
+    unit = "%/s per %" if kind == "integrating" else "% per %"
+    extra = f", actuator lag {h.actuator_tau_s:.3g} s" if h.actuator_tau_s > 0 else ""
+    return schema.Process(
+        kind=kind,
+        gain=float(gain),
+        gain_se=_opt(gain_se) if h.gain_free else None,
+        time_constant_s=d.time_constant_s,
+        dead_time_s=d.dead_time_s,
+        sensor_tau_s=d.sensor_tau_s,
+        actuator_tau_s=h.actuator_tau_s,
+        sample_time_s=record.ts_s,
+        description=f"{d.describe()}, gain {gain:.3g} {unit}{extra}",
+    )
+
+
+def residual_out(vf: ValveFit, record: Record, rss_override: float | None = None) -> schema.Residual:
+    resid = record.target - vf.fit.prediction
+    tenths = np.array_split(resid, 10)
+    power = np.abs(np.fft.rfft(resid - resid.mean())) ** 2
+    total = float(power[1:].sum()) or 1.0
+    freq = np.fft.rfftfreq(resid.size, record.ts_s)
+    peaks = []
+    for period in residual_periods(record, vf, count=3):
+        k = int(np.argmin(np.abs(freq - 1.0 / period)))
+        share = float(power[max(k - 1, 1) : k + 2].sum() / total)
+        peaks.append({"period_s": float(period), "share": share})
+    return schema.Residual(rms_by_tenth_pct=[float(np.sqrt(np.mean(t * t))) for t in tenths], peaks=peaks)
+
+
+def diagnosis_report(
+    loop_id: str,
+    record: Record,
+    d: Diagnosis,
+    warnings: list[str] | None = None,
+    valve_check: schema.ValveCheck | None = None,
+) -> schema.DiagnosisReport:
+    f = d.friction
+    params = cause_parameters(d.extended)
+    candidates = {
+        c: schema.CauseCandidate(
+            cause=c,
+            parameters={k: float(v) for k, v in cand.parameters.items() if math.isfinite(v)},
+            error_pct=_opt(cand.error_pct),
+            criterion=_opt(cand.criterion),
+            delta_criterion=_opt(cand.delta_criterion),
+            accepted=cand.accepted,
+            identifiable=cand.identifiable,
+            note=cand.note,
+        )
+        for c, cand in d.candidates.items()
+    }
+    notes = list(warnings or [])
+    if d.linear_valve_delta <= 0:
+        notes.append(
+            "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
+        )
+    return schema.DiagnosisReport(
+        loop_id=loop_id,
+        n_samples=record.n,
+        sample_time_s=record.ts_s,
+        cause=d.causes[0] if d.causes else "none",
+        causes=list(d.causes),
+        parameters={k: float(v) for k, v in params.items() if math.isfinite(v)},
+        candidates=candidates,
+        base_error=d.base.error_pct(record),
+        extended_error=d.extended.error_pct(record),
+        gain_pct=d.gain_pct(record),
+        fs_pct=_opt(f.fs_pct),
+        fd_pct=_opt(f.fd_pct),
+        fs_se_pct=_opt(f.fs_se_pct),
+        fd_se_pct=_opt(f.fd_se_pct),
+        s_pct=_opt(f.s_pct),
+        j_pct=_opt(f.j_pct),
+        s_se_pct=_opt(f.s_se_pct),
+        j_se_pct=_opt(f.j_se_pct),
+        base_friction=friction_out(d.base_friction),
+        process=process_out(d.extended, record),
+        stiction_delta_criterion=float(d.linear_valve_delta),
+        slips=int(d.extended.fit.slips.at.size),
+        uses_mv=valve_check is not None,
+        valve_check=valve_check,
+        residual_base=residual_out(d.base.fit, record),
+        residual_extended=residual_out(d.extended.fit, record),
+        warnings=notes,
+    )

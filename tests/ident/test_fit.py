@@ -1,0 +1,70 @@
+"""The fits' parts against simple references: the compiled walk, the transfer function, the least squares."""
+
+import numpy as np
+import pytest
+
+from ident import fit as F  # noqa: N812
+from ident.process import Dynamics, transfer_function
+from ident.record import Record
+from ident.stem import read_paths
+from sim.disturbance import Disturbance
+from sim.extensions import Extensions
+from sim.loop import LoopSpec, simulate
+from sim.process import LOOPS, continuous_plant, discretise
+from tests.ident.walk_reference import walk_by_sample
+
+
+@pytest.mark.parametrize(
+    "ext", [Extensions(), Extensions(actuator_tau_s=4.0), Extensions(sensor_tau_s=5.0)], ids=["plain", "lag", "sensor"]
+)
+def test_compiled_walk_equals_the_sample_by_sample_transcription(ext):
+    r = simulate([LoopSpec(33.2, 19.4, disturbance=Disturbance("gaussian", "output", 0.03), extensions=ext)]).kept()
+    drive = F.drive_of(r.op[0], ext.actuator_tau_s, 1.0)
+    path = read_paths(r.pv[0], [Dynamics(None, 0.0, ext.sensor_tau_s)], 1.0)[0]
+    read = F.Slips.from_path(path, drive)
+    bands, stops = np.linspace(8, 17, 12), np.linspace(6, 9, 12)
+    levels = np.full(12, r.mv[0, 0])
+    fast = F.walk(read, drive, bands, stops, levels, 3)
+    slow = walk_by_sample(read, drive, bands, stops, levels, 3)
+    assert sum(s.at.size for s in slow) > 100
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a.at, b.at)
+        np.testing.assert_array_equal(a.directions, b.directions)
+        np.testing.assert_array_equal(a.read, b.read)
+        np.testing.assert_allclose(a.landing_drive, b.landing_drive)
+        np.testing.assert_allclose(a.breaks, b.breaks)
+
+
+@pytest.mark.parametrize(
+    "dyn", [Dynamics(), Dynamics(50.0), Dynamics(None, 2.5), Dynamics(30.0, 3.3, 7.0), Dynamics(None, 0.0, 5.0)]
+)
+def test_transfer_function_is_the_simulators_discretisation(dyn):
+    u = np.random.default_rng(0).standard_normal(300)
+    A, B, C = continuous_plant(LOOPS["level"], 1.0, dyn.time_constant_s, dyn.sensor_tau_s)
+    plant = discretise(A, B, C, 1.0, dyn.dead_time_s)
+    x, y = np.zeros(2), []
+    for k in range(300):
+        y.append(plant.c @ x)
+        now = u[k - plant.delay_samples] if k >= plant.delay_samples else 0.0
+        prev = u[k - plant.delay_samples - 1] if k >= plant.delay_samples + 1 else 0.0
+        x = plant.phi @ x + plant.gamma_now * now + plant.gamma_prev * prev
+    tf = transfer_function(dyn, 1.0)
+    np.testing.assert_allclose(tf.response(u[None, :])[0], y, atol=1e-12)
+    free = tf.free_responses(50)
+    state = np.eye(tf.phi.shape[0])
+    for k in range(50):
+        np.testing.assert_allclose(free[:, k], tf.c @ state, atol=1e-12)
+        state = tf.phi @ state
+
+
+def test_exact_parameters_reproduce_a_noise_free_loop():
+    """The valve model's landings and the plant's response explain a clean record to rounding."""
+    spec = LoopSpec(33.2, 19.4, extensions=Extensions(dead_time_s=2.6))
+    r = simulate([spec]).kept()
+    rec = Record(r.op[0], r.pv[0], 1.0)
+    hyp = F.Hypothesis(Dynamics(None, 2.6))
+    vf = F.fit_valve(rec, hyp, read_paths(r.pv[0], [hyp.dynamics], 1.0)[0])
+    assert vf.rss < 1e-12
+    fr = F.friction(vf, rec)
+    assert fr.fs_pct == pytest.approx(33.2, abs=0.3)
+    assert fr.fd_pct == pytest.approx(19.4, abs=0.05)
