@@ -49,6 +49,8 @@ class Hypothesis:
     osc_period_s: float | None = None
     linear_valve: bool = False
     """No stiction: the stem follows the drive."""
+    snapshot: bool = False
+    """The output samples the stem's position itself (a measured stem), not the flow it passed over an interval."""
 
 
 @dataclass(frozen=True)
@@ -68,7 +70,9 @@ def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
         return Drive(op_pct, op_pct, op_pct)
     decay = np.exp(-ts_s / actuator_tau_s)
     end = np.empty_like(op_pct)
-    d = op_pct[0]
+    # the drive when the record starts: a lag follows a ramp tau behind it
+    m = min(5, op_pct.size - 1)
+    d = op_pct[0] - actuator_tau_s * (op_pct[m] - op_pct[0]) / (m * ts_s) if m > 0 else op_pct[0]
     for k, op in enumerate(op_pct):
         d = op + (d - op) * decay
         end[k] = d
@@ -124,12 +128,33 @@ def solve(y: np.ndarray, x: np.ndarray, q: np.ndarray) -> LinearFit:
     return LinearFit(rss, n_params, coef, cov, y - resid, sigma2)
 
 
-def path_regressors(slips: Slips, n: int, ts_s: float) -> np.ndarray:
-    """[3, N] inputs whose combination ``g*drive_at_slip - g*stop*direction + g*level0*first`` is the stem's flow."""
+ROWS = ("drive", "stop", "jump", "level0")
+"""The stem's position is ``drive_at_slip + stop * r_stop + jump * r_jump + level0 * r_level0``, per piece."""
+
+
+def path_regressors(slips: Slips, n: int, ts_s: float, snapshot: bool = False) -> np.ndarray:
+    """[4, N] the stem's flow as a linear combination of the valve's parameters (``ROWS``).
+
+    After a slip at a held drive (OP steps at the sample instant) the stem lands ``stop`` short of
+    the drive: ``M = p - d stop``.  When the drive moves within the interval (an actuator lag) it
+    breaks away as the drive crosses ``M_old + d S`` and lands ``stop`` short of that point: it
+    jumps by ``J = S - stop``, ``M = M_old + d J``, a chain back to the last held slip or to the
+    level before the first slip.  Both are linear in (stop, J, level0): the least squares solve
+    for them; the band S itself shows only in when the slips happen (``walk``).
+    """
+    m = slips.at.size
+    coef = np.zeros((m + 1, 4))
+    coef[0, 3] = 1.0
+    for j in range(m):
+        d = float(slips.directions[j])
+        if slips.breaks[j] > 0:
+            coef[j + 1] = coef[j] + (0.0, 0.0, d, 0.0)
+        else:
+            coef[j + 1] = (slips.landing_drive[j], -d, 0.0, 0.0)
     piece = np.searchsorted(slips.at, np.arange(n), side="right")
-    at_slip = np.concatenate([[0.0], slips.landing_drive])
-    direction = np.concatenate([[0.0], slips.directions.astype(float)])
-    r = np.stack([at_slip[piece], direction[piece], (piece == 0).astype(float)])
+    r = coef[piece].T.copy()
+    if snapshot:
+        return r
     # the slip's interval: the old position until the break, then the new one, less the slip's own deficit
     k = slips.at[slips.at > 0]
     share = slips.breaks[slips.at > 0] + SLIP_S / ts_s
@@ -154,6 +179,9 @@ class ValveFit:
     band_pct: float = np.nan
     """S, % of OP."""
     band_se: float = np.nan
+    jump_pct: float = np.nan
+    """J as the least squares read it from slips at a moving drive (nan: none such)."""
+    jump_se: float = np.nan
 
     @property
     def rss(self) -> float:
@@ -165,31 +193,65 @@ class ValveFit:
         return self.fit.n_params + _own_params(self.hypothesis) + int(self.slips.read.sum())
 
 
+def _rows(hyp: Hypothesis) -> list[int]:
+    """Which of ``ROWS`` the least squares solve for: the jump only where the drive moves within intervals."""
+    rows = [0] if hyp.gain_free else []
+    return rows + [1, 2, 3] if hyp.actuator_tau_s > 0 else rows + [1, 3]
+
+
 def _linear_fit(record: Record, hyp: Hypothesis, x: np.ndarray, q: np.ndarray, nominal_gain: float) -> LinearFit:
-    """``x[0]`` is scaled by the gain; with a fixed gain it moves to the target's side."""
-    y = record.target
-    if hyp.gain_free:
-        return solve(y, x, q)
-    fit = solve(y - nominal_gain * x[0], x[1:], q)
-    return replace(fit, prediction=fit.prediction + nominal_gain * x[0])
+    """Least squares on the compared regressors ``x`` [4, n]; a fixed gain moves ``x[0]`` to the target's side.
+
+    The coefficients come back for all four ``ROWS`` (``g`` times each parameter), zero where not solved.
+    """
+    rows = _rows(hyp)
+    y = record.target if hyp.gain_free else record.target - nominal_gain * x[0]
+    fit = solve(y, x[rows], q)
+    coef = np.zeros(4)
+    cov = np.zeros((4, 4))
+    coef[rows] = fit.coef
+    cov[np.ix_(rows, rows)] = fit.cov
+    if not hyp.gain_free:
+        coef[0] = nominal_gain
+    prediction = fit.prediction if hyp.gain_free else fit.prediction + nominal_gain * x[0]
+    return replace(fit, coef=coef, cov=cov, prediction=prediction)
 
 
-def _valve_from_fit(hyp: Hypothesis, fit: LinearFit, nominal_gain: float) -> tuple[float, float, float, float, float]:
-    """(gain, its SE, stop, its SE, level0) from the coefficients."""
-    if hyp.gain_free:
-        g, gs, g0 = fit.coef[0], fit.coef[1], fit.coef[2]
-        cov = fit.cov[:2, :2]
-        g_se = float(np.sqrt(max(cov[0, 0], 0.0)))
-    else:
-        g, gs, g0 = nominal_gain, fit.coef[0] * nominal_gain, fit.coef[1] * nominal_gain
-        cov = np.zeros((2, 2))
-        cov[1, 1] = fit.cov[0, 0] * nominal_gain**2
-        g_se = 0.0
+@dataclass(frozen=True)
+class Coefficients:
+    gain: float
+    gain_se: float
+    stop: float
+    stop_se: float
+    level0: float
+    jump: float
+    jump_se: float
+
+
+def _valve_from_fit(fit: LinearFit) -> Coefficients:
+    """The valve's parameters from the coefficients of ``g * (drive, stop, jump, level0)``; nan where not solved.
+
+    Only slips at a held drive read ``stop`` (and the gain, through the drive's level), only slips
+    at a moving drive read ``J``.
+    """
+    c, cov = fit.coef, fit.cov
+    g = float(c[0])
+    g_se = float(np.sqrt(max(cov[0, 0], 0.0)))
+    nan = float("nan")
     if g == 0:
-        return 0.0, g_se, np.nan, np.nan, np.nan
-    stop = -gs / g
-    jac = np.array([gs / g**2, -1.0 / g])  # d stop / d (g, g*stop coefficient)
-    return float(g), g_se, float(stop), float(np.sqrt(max(jac @ cov @ jac, 0.0))), float(g0 / g)
+        return Coefficients(0.0, g_se, nan, nan, nan, nan, nan)
+
+    def ratio(i):
+        if cov[i, i] <= 0 and c[i] == 0:
+            return nan, nan
+        jac = np.zeros(4)
+        jac[0], jac[i] = -c[i] / g**2, 1.0 / g  # d (c_i / g)
+        return float(c[i] / g), float(np.sqrt(max(jac @ cov @ jac, 0.0)))
+
+    stop, stop_se = ratio(1)
+    jump, jump_se = ratio(2)
+    level0, _ = ratio(3)
+    return Coefficients(g, g_se, stop, stop_se, level0, jump, jump_se)
 
 
 def walk(
@@ -248,29 +310,29 @@ def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.nda
 def _batch_fit(
     record: Record, hyp: Hypothesis, regs: np.ndarray, tf: TransferFunction, q: np.ndarray, nominal_gain: float
 ):
-    """Least squares of every candidate's regressors [C, 3, N] at once: (rss [C], coef [C, p])."""
-    x = project_out(record.compared(tf.response(regs)).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 3, -1)
+    """Least squares of every candidate's regressors [C, 4, N] at once: (rss [C], coef [C, 4]) of ``ROWS``."""
+    x = project_out(record.compared(tf.response(regs)).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 4, -1)
     y = project_out(record.target[None, :], q)[0]
-    if hyp.gain_free:
-        target, cols = np.broadcast_to(y, (regs.shape[0], y.size)), x
-    else:
-        target, cols = y[None, :] - nominal_gain * x[:, 0], x[:, 1:]
+    rows = _rows(hyp)
+    cols = x[:, rows]
+    target = np.broadcast_to(y, (regs.shape[0], y.size)) if hyp.gain_free else y[None, :] - nominal_gain * x[:, 0]
     gram = np.einsum("cin,cjn->cij", cols, cols)
     rhs = np.einsum("cin,cn->ci", cols, target)
-    ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(gram.shape[1])
-    coef = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
-    resid = target - np.einsum("ci,cin->cn", coef, cols)
+    ridge = 1e-9 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(gram.shape[1])
+    solved = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
+    resid = target - np.einsum("ci,cin->cn", solved, cols)
+    coef = np.zeros((regs.shape[0], 4))
+    coef[:, rows] = solved
+    if not hyp.gain_free:
+        coef[:, 0] = nominal_gain
     return np.einsum("cn,cn->c", resid, resid), coef
 
 
-def _stop_level0(hyp: Hypothesis, coef: np.ndarray, nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:
-    if hyp.gain_free:
-        g, gs, gl = coef[:, 0], coef[:, 1], coef[:, 2]
-    else:
-        g = np.full(coef.shape[0], nominal_gain)
-        gs, gl = coef[:, 0] * nominal_gain, coef[:, 1] * nominal_gain
-    g = np.where(g == 0, np.nan, g)
-    return -gs / g, gl / g
+def _walk_parameters(coef: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(stop, level0) of each candidate from its coefficients [C, 4]; stop = S - J where no held slip reads it."""
+    g = np.where(coef[:, 0] == 0, np.nan, coef[:, 0])
+    stop = np.where(coef[:, 1] != 0, coef[:, 1] / g, bands - coef[:, 2] / g)
+    return stop, coef[:, 3] / g
 
 
 S_GRID = np.linspace(-0.2, 0.2, 21)
@@ -314,7 +376,10 @@ def fit_valve(
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
     if hyp.linear_valve:
         x = record.compared(tf.response(drive.mean[None, :]))
-        fit = _linear_fit(record, hyp, np.concatenate([x, np.zeros((2, x.shape[1]))]), q, nominal_gain)
+        y = record.target if hyp.gain_free else record.target - nominal_gain * x[0]
+        fit = solve(y, x if hyp.gain_free else x[:0], q)
+        if not hyp.gain_free:
+            fit = replace(fit, prediction=fit.prediction + nominal_gain * x[0])
         g = float(fit.coef[0]) if hyp.gain_free else nominal_gain
         g_se = float(np.sqrt(fit.cov[0, 0])) if hyp.gain_free else 0.0
         empty = Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
@@ -341,9 +406,9 @@ def fit_valve(
         stops, levels = np.full(bands.size, best.stop_pct), np.full(bands.size, best.level0_pct)
         for _ in range(WALK_ITERATIONS):
             cands = walk(read, drive, bands, stops, levels, window, read_levels)
-            regs = np.stack([path_regressors(c, record.n, record.ts_s) for c in cands])
+            regs = np.stack([path_regressors(c, record.n, record.ts_s, hyp.snapshot) for c in cands])
             rss, coef = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
-            new_stops, new_levels = _stop_level0(hyp, coef, nominal_gain)
+            new_stops, new_levels = _walk_parameters(coef, bands)
             ok = np.isfinite(new_stops) & np.isfinite(new_levels)
             stops, levels = np.where(ok, new_stops, stops), np.where(ok, new_levels, levels)
         ic = criterion(rss, fixed + np.array([c.read.sum() for c in cands]), n)
@@ -392,10 +457,12 @@ def refit(record: Record, hyp: Hypothesis, slips: Slips) -> ValveFit | None:
 
 def _finish(record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float) -> ValveFit:
     """The full linear fit (with covariance) for one set of slips."""
-    x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s)))
+    x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s, hyp.snapshot)))
     fit = _linear_fit(record, hyp, x, q, nominal_gain)
-    g, g_se, stop, stop_se, level0 = _valve_from_fit(hyp, fit, nominal_gain)
-    return ValveFit(hyp, slips, fit, g, g_se, stop, stop_se, level0, tf)
+    c = _valve_from_fit(fit)
+    return ValveFit(
+        hyp, slips, fit, c.gain, c.gain_se, c.stop, c.stop_se, c.level0, tf, jump_pct=c.jump, jump_se=c.jump_se
+    )
 
 
 def _robust_se(x: np.ndarray) -> float:
@@ -438,13 +505,20 @@ class Friction:
 
 
 def friction(vf: ValveFit, record: Record) -> Friction:
-    """S (searched, or from the brackets), J = S - stop, with their standard errors."""
+    """S (searched, or from the brackets), stop and J from the least squares (one from the other and S where
+    only one kind of slip reads it), with their standard errors."""
     s, s_se = vf.band_pct, vf.band_se
-    if not np.isfinite(s) or not np.isfinite(vf.stop_pct):
+    stop, stop_se = vf.stop_pct, vf.stop_se
+    if not np.isfinite(stop) and np.isfinite(vf.jump_pct):
+        stop, stop_se = s - vf.jump_pct, float(np.hypot(s_se, vf.jump_se))
+    if not np.isfinite(s) or not np.isfinite(stop):
         nan = float("nan")
         return Friction(nan, nan, nan, nan, nan, nan, nan, nan, int(vf.slips.read.sum()))
-    j = s - vf.stop_pct
-    j_se = float(np.hypot(s_se, vf.stop_se))
+    vf = replace(vf, stop_pct=stop, stop_se=stop_se)
+    if np.isfinite(vf.jump_pct):
+        j, j_se = vf.jump_pct, vf.jump_se
+    else:
+        j, j_se = s - stop, float(np.hypot(s_se, stop_se))
     fs = s * PCT_OF_500LBF_PER_PCT
     stop_lbf = pct_to_lbf(vf.stop_pct * PCT_OF_500LBF_PER_PCT)
     fd_lbf = stop_lbf - VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs) - stop_lbf)
@@ -479,7 +553,7 @@ def load_amplitude_pct(record: Record, vf: ValveFit) -> float:
         drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
         model = record.compared(tf.response(drive.mean[None, :]))
     else:
-        model = record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s)))
+        model = record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot)))
     y = record.target
     if not hyp.gain_free:
         y = y - vf.gain_ratio * model[0]
@@ -490,3 +564,31 @@ def load_amplitude_pct(record: Record, vf: ValveFit) -> float:
     z = np.exp(-1j * omega * record.ts_s)
     response = abs(np.polyval(tf.b[::-1], z) / np.polyval(tf.a[::-1], z)) * abs(vf.gain_ratio)
     return at_pv / response if response > 0 else float("nan")
+
+
+def stem_path(vf: ValveFit, record: Record) -> np.ndarray:
+    """[N] the model's stem position (% of OP) at every interval: landings held between slips."""
+    drive = drive_of(record.op_pct, vf.hypothesis.actuator_tau_s, record.ts_s)
+    if vf.hypothesis.linear_valve:
+        return drive.mean.copy()
+    regs = path_regressors(vf.slips, record.n, record.ts_s, vf.hypothesis.snapshot)
+    level0 = vf.level0_pct if np.isfinite(vf.level0_pct) else float(np.mean(record.op_pct))
+    stop = vf.stop_pct if np.isfinite(vf.stop_pct) else 0.0
+    jump = vf.jump_pct if np.isfinite(vf.jump_pct) else 0.0
+    return regs[0] + stop * regs[1] + jump * regs[2] + level0 * regs[3]
+
+
+def simulated_pv(vf: ValveFit, record: Record) -> np.ndarray:
+    """[N] PV as the model simulates it from its stem path, with offset and drift fitted to the record's levels.
+
+    Open loop in the process: what the model says PV did, not a one-sample prediction from the data.
+    """
+    u = stem_path(vf, record)
+    y = vf.gain_ratio * vf.tf.response(u[None, :])[0]
+    t = record.t_s / max(record.t_s[-1], 1e-9)
+    x = np.stack([np.ones(record.n), t, *vf.tf.free_responses(record.n)], axis=1)
+    if vf.hypothesis.osc_period_s:
+        w = 2 * np.pi / vf.hypothesis.osc_period_s * record.t_s
+        x = np.concatenate([x, np.sin(w)[:, None], np.cos(w)[:, None]], axis=1)
+    coef, *_ = np.linalg.lstsq(x, record.pv_pct - y, rcond=None)
+    return y + x @ coef
