@@ -448,8 +448,8 @@ def refit(record: Record, hyp: Hypothesis, slips: Slips) -> ValveFit | None:
     omega = 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None
     q = nuisance_basis(record, tf, omega)
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-    if hyp.actuator_tau_s > 0 or np.any(slips.breaks):
-        slips = replace(slips, breaks=np.zeros(slips.at.size), landing_drive=drive.mean[slips.at])
+    # the slips' times and directions only: where the stem lands follows from this hypothesis's own drive
+    slips = replace(slips, breaks=np.zeros(slips.at.size), landing_drive=drive.mean[slips.at])
     vf = _finish(record, hyp, slips, tf, q, 1.0)
     band, band_se, _ = _band(vf, drive)
     return replace(vf, band_pct=band, band_se=band_se)
