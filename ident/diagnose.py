@@ -48,9 +48,22 @@ class Model:
     def rss(self) -> float:
         return self.fit.rss if self.rss_override is None else self.rss_override
 
-    def error_pct(self, record: Record) -> float:
-        """RMS of the one-sample PV prediction error, % of span."""
+    def step_error_pct(self, record: Record) -> float:
+        """RMS of the one-sample PV prediction error (what the criterion weighs), % of span."""
         return float(np.sqrt(self.rss / record.n_fit))
+
+    def error_pct(self, record: Record) -> float:
+        """RMS difference between measured PV and PV as the model simulates it from OP, % of span.
+
+        The simulation is open loop in the process (its offset and drift fitted): the figure a
+        plant engineer sees in the plot.  A quantised record is compared on its own lattice.
+        """
+        sim = fit.simulated_pv(self.fit, record)
+        if self.quantum_pct:
+            origin = float(record.pv_pct[np.argmin(np.abs(record.pv_pct))])
+            sim = lattice.snap(sim, self.quantum_pct, origin)
+        skip = record.skip
+        return float(np.sqrt(np.mean((record.pv_pct[skip:] - sim[skip:]) ** 2)))
 
 
 @dataclass(frozen=True)
@@ -86,6 +99,7 @@ class Diagnosis:
         return cause_parameters(self.extended)
 
     def gain_pct(self, record: Record) -> float:
+        """How much the extended model's fit error improves on the canonical's, %."""
         base, ext = self.base.error_pct(record), self.extended.error_pct(record)
         return float(100.0 * (1.0 - ext / base)) if base > 0 else 0.0
 

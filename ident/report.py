@@ -69,6 +69,20 @@ def residual_out(vf: ValveFit, record: Record, rss_override: float | None = None
     return schema.Residual(rms_by_tenth_pct=[float(np.sqrt(np.mean(t * t))) for t in tenths], peaks=peaks)
 
 
+def valve_check_out(v) -> schema.ValveCheck:
+    """``ident.valve_check.ValveCheck`` as reported; S and J only where the stem sticks."""
+    return schema.ValveCheck(
+        model="sticky" if v.sticky else "linear",
+        delta_criterion=v.delta_criterion,
+        s_pct=_opt(v.s_pct) if v.sticky else None,
+        j_pct=_opt(v.j_pct) if v.sticky else None,
+        actuator_tau_s=v.actuator_tau_s,
+        calibration_gain=v.calibration_gain,
+        calibration_offset_pct=v.calibration_offset_pct,
+        error_pct=v.error_pct,
+    )
+
+
 def diagnosis_report(
     loop_id: str,
     record: Record,

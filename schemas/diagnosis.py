@@ -18,7 +18,7 @@ class CauseCandidate(_Frozen):
 
     cause: str
     parameters: dict[str, float] = Field(description="its fitted parameters, named as in the catalogue")
-    error_pct: float | None = Field(description="RMS one-sample PV prediction error with it, % of span")
+    error_pct: float | None = Field(description="RMS error of PV as the model with it simulates it from OP, % of span")
     criterion: float | None = Field(description="Schwarz's criterion (BIC) of the model with it; lower is better")
     delta_criterion: float | None = Field(
         description="criterion minus that of the model it was tried on: negative means it earned its place"
@@ -90,8 +90,10 @@ class DiagnosisReport(_Frozen):
     causes: list[str] = Field(description="every cause that earned its place, in the order it was added")
     parameters: dict[str, float] = Field(description="the fitted parameters of every named cause")
     candidates: dict[str, CauseCandidate]
-    base_error: float = Field(description="canonical model's RMS one-sample PV prediction error, % of span")
-    extended_error: float = Field(description="extended model's RMS one-sample PV prediction error, % of span")
+    base_error: float = Field(
+        description="RMS error of PV as the canonical model simulates it from the measured OP, % of span"
+    )
+    extended_error: float = Field(description="the same for the extended model, % of span")
     gain_pct: float = Field(description="100 (1 - extended_error / base_error)")
     fs_pct: float | None = Field(description="static friction under the extended model, % of 500 lbf")
     fd_pct: float | None

@@ -16,6 +16,7 @@ COMMANDS = {
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
     "train": "rebuild every model offline from the simulator",
     "quantify": "stiction reports for historian exports",
+    "diagnose": "what the canonical simulation gets wrong on measured loops, why, and what fixing it gains",
     "bench": "benchmarks: simulator speed against the reference",
 }
 

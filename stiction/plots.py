@@ -48,3 +48,67 @@ def plot_loop(out: Path, window, report, details) -> Path:
     fig.savefig(out, dpi=90)
     plt.close(fig)
     return out
+
+
+def _diagnosis_title(report) -> str:
+    causes = ", ".join(
+        f"{c} " + ", ".join(f"{v:.3g}" for k, v in report.parameters.items() if k.split("_")[0] in c or c in k)
+        for c in report.causes
+    )
+    sj = (
+        f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} %, J {report.j_pct:.2f} ± {report.j_se_pct:.2f} % of span"
+        if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None
+        else "no friction read"
+    )
+    return (
+        f"{report.loop_id}: {causes or 'no cause beyond the canonical loop'}; "
+        f"fit error {report.base_error:.3g} → {report.extended_error:.3g} % (gain {report.gain_pct:.0f} %)\n"
+        f"{report.process.description}; {sj}"
+    )
+
+
+def plot_diagnosis(out: Path, record, d, report) -> Path:
+    """Measured PV against the canonical and the extended model; OP and the model's stem; the OP-PV
+    overlay; the residuals' spectra.  The causes and the gain in the title."""
+    from ident.fit import simulated_pv, stem_path
+
+    t = record.t_s
+    fig, axes = plt.subplots(2, 2, figsize=(14, 8), gridspec_kw={"width_ratios": [1.7, 1]})
+    ax = axes[0, 0]
+    ax.plot(t, record.pv_pct, color="0.35", lw=0.8, label="PV measured")
+    ax.plot(t, simulated_pv(d.base.fit, record), color="tab:red", lw=1.0, label="canonical model")
+    ax.plot(t, simulated_pv(d.extended.fit, record), color="tab:blue", lw=1.0, label="extended model")
+    ax.set_ylabel("PV, %")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title("PV: the models driven by the measured OP", fontsize=9)
+    ax = axes[1, 0]
+    ax.plot(t, record.op_pct, color="tab:green", lw=0.8, label="OP")
+    ax.plot(t, stem_path(d.extended.fit, record), color="tab:blue", lw=1.0, label="stem (extended model)")
+    slips = d.extended.fit.slips
+    if slips.at.size:
+        ax.plot(t[slips.at], stem_path(d.extended.fit, record)[slips.at], "|", color="k", ms=8, label="slips")
+    ax.set_xlabel("time, s")
+    ax.set_ylabel("OP, stem, %")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[0, 1]
+    ax.plot(record.op_pct, record.pv_pct, ".", ms=2, color="0.6", label="measured")
+    ax.plot(record.op_pct, simulated_pv(d.extended.fit, record), "-", lw=0.6, color="tab:blue", label="extended model")
+    ax.set_xlabel("OP, %")
+    ax.set_ylabel("PV, %")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title("OP-PV", fontsize=9)
+    ax = axes[1, 1]
+    for model, color, label in ((d.base, "tab:red", "canonical"), (d.extended, "tab:blue", "extended")):
+        resid = record.target - model.fit.fit.prediction
+        spec = np.abs(np.fft.rfft(resid - resid.mean())) ** 2 / resid.size
+        freq = np.fft.rfftfreq(resid.size, record.ts_s)
+        ax.loglog(1 / freq[1:], spec[1:], lw=0.8, color=color, label=f"{label} residual")
+    ax.set_xlabel("period, s")
+    ax.set_ylabel("power of the one-sample error")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title("where the models fail, by period", fontsize=9)
+    fig.suptitle(_diagnosis_title(report), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+    return out

@@ -1,0 +1,107 @@
+"""``stiction diagnose PATH...``: what the canonical simulation gets wrong on each measured loop, and why.
+
+For every export: the canonical loop is fitted driven by the measured OP, every cause of the
+catalogue is tried on top, those that earn their place are named with their parameters,
+and the gain in fit is measured (``ident.diagnose``).  ``--json`` prints one object per file
+(JSON Lines, ``schemas.diagnosis``); ``--plot DIR`` writes one PNG per loop.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from stiction.errors import StictionError
+
+MAX_SAMPLES = 3600
+"""Longer exports are diagnosed on their last MAX_SAMPLES samples (the fits grow with the record)."""
+MIN_SAMPLES = 100
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("paths", nargs="+", type=Path, metavar="PATH", help="CSV (or parquet) historian exports")
+    p.add_argument("--json", action="store_true", help="one JSON object per file (JSON Lines)")
+    p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
+    for field in ("op", "pv", "t", "sp", "mv"):
+        p.add_argument(
+            f"--{field}", dest=f"col_{field}", metavar="COLUMN", help=f"the file's name of the {field} column"
+        )
+    p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
+    p.add_argument("--last", type=int, metavar="N", help=f"diagnose the last N samples (default: up to {MAX_SAMPLES})")
+    p.add_argument("--max-causes", type=int, default=4, help="most causes named per loop (default 4)")
+
+
+def _summary(path: str, r) -> str:
+    def f(x, nd=2):
+        return "-" if x is None else f"{x:.{nd}f}"
+
+    causes = ", ".join(
+        f"{c} ({', '.join(f'{k} {v:.3g}' for k, v in r.parameters.items() if k in _params(c))})" for c in r.causes
+    )
+    lines = [
+        f"{path}",
+        f"  process: {r.process.description}",
+        f"  causes: {causes or 'none: the canonical loop explains the data within its noise'}",
+        f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
+        f"  S {f(r.s_pct)} +- {f(r.s_se_pct)} %  J {f(r.j_pct)} +- {f(r.j_se_pct)} % of span   "
+        f"(fs {f(r.fs_pct, 1)} %, fd {f(r.fd_pct, 1)} % of 500 lbf; "
+        f"canonical model: fs {f(r.base_friction.fs_pct, 1)}, fd {f(r.base_friction.fd_pct, 1)})",
+    ]
+    if r.valve_check is not None:
+        v = r.valve_check
+        lines.append(
+            f"  valve (OP -> measured stem): {v.model}, actuator lag {v.actuator_tau_s:.2g} s, "
+            f"stem = {v.calibration_offset_pct:.2f} + {v.calibration_gain:.3f} OP, error {v.error_pct:.2f} %"
+        )
+    lines += [f"  warning: {w}" for w in r.warnings]
+    return "\n".join(lines)
+
+
+def _params(cause: str) -> tuple[str, ...]:
+    from sim.extensions import CATALOGUE
+
+    return CATALOGUE.get(cause, ())
+
+
+def run(args: argparse.Namespace) -> int:
+    from agent.historian import read_export
+    from ident.diagnose import diagnose
+    from ident.record import Record
+    from ident.report import diagnosis_report, valve_check_out
+    from ident.valve_check import check_valve
+
+    columns = {f: getattr(args, f"col_{f}") for f in ("op", "pv", "t", "sp", "mv") if getattr(args, f"col_{f}")}
+    if args.last is not None and args.last < MIN_SAMPLES:
+        raise StictionError(f"--last {args.last}: need at least {MIN_SAMPLES} samples")
+    if args.max_causes < 0:
+        raise StictionError(f"--max-causes {args.max_causes}: expected 0 or more")
+    failed = 0
+    for path in args.paths:
+        try:
+            export = read_export(path, args.ts, columns)
+            keep = args.last or MAX_SAMPLES
+            warnings = list(export.warnings)
+            if export.op.size > keep and args.last is None:
+                warnings.append(f"{export.op.size} samples: diagnosed the last {keep} (--last to choose)")
+            op, pv = export.op[-keep:], export.pv[-keep:]
+            mv = export.mv[-keep:] if export.mv is not None else None
+            if op.size < MIN_SAMPLES:
+                raise StictionError(f"{path}: {op.size} samples, need at least {MIN_SAMPLES} to diagnose")
+            record = Record(op, pv, export.ts_s)
+            d = diagnose(record, max_causes=args.max_causes)
+            check = valve_check_out(check_valve(op, mv, export.ts_s)) if mv is not None else None
+            report = diagnosis_report(path.stem, record, d, warnings, check)
+        except StictionError as e:  # one bad file never stops the others
+            print(f"stiction diagnose: error: {e}", file=sys.stderr)
+            failed += 1
+            continue
+        print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)
+        if args.plot:
+            from stiction.plots import plot_diagnosis
+
+            args.plot.mkdir(parents=True, exist_ok=True)
+            png = plot_diagnosis(args.plot / f"{path.stem}.png", record, d, report)
+            if not args.json:
+                print(f"  plot: {png}")
+    return 2 if failed else 0
