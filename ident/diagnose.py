@@ -347,6 +347,64 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     return tried, current
 
 
+PROCESS_CAUSES = ("process_gain", "process_type", "dead_time")
+PROCESS_FULL_FITS = 4
+
+
+def _process_hypothesis(tau: float | None, theta: float) -> Hypothesis:
+    return Hypothesis(Dynamics(tau, theta), gain_free=True)
+
+
+def _process_causes(hyp: Hypothesis) -> tuple[str, ...]:
+    d = hyp.dynamics
+    named = ("process_gain",) if hyp.gain_free else ()
+    named += ("process_type",) if d.time_constant_s is not None else ()
+    return named + (("dead_time",) if d.dead_time_s > 0 else ())
+
+
+def identify_process(fitter: Fitter) -> Model:
+    """The process identified from the data: integrating or first order, gain and dead time together.
+
+    A plant loop (a flow loop sampled every 10 s, say) differs from the canonical level loop in
+    gain, type and dead time at once; tried one at a time, none of them helps alone.  Screened on
+    a grid with first-pass fits, the best few fitted in full, the dead time refined; then every
+    part that does not earn its place is dropped again (backward elimination).
+    """
+    record = fitter.record
+    ts, span = record.ts_s, record.n * record.ts_s
+    taus = [None, *np.geomspace(0.05 * ts, span / 3, 14)]
+    thetas = ts * np.array([0, 0.5, 1, 1.5, 2, 3, 4, 6, 8])
+    grid = [(tau, th) for tau in taus for th in thetas]
+    scored = fitter.fast([_process_hypothesis(tau, th) for tau, th in grid])
+    order = np.argsort([ic for _, ic in scored])[:PROCESS_FULL_FITS]
+    fits = []
+    for i in order:
+        tau, th = grid[i]
+        for th_fine in np.unique(np.clip(th + ts * np.array([-0.3, 0.0, 0.3]), 0, None)):
+            hyp = _process_hypothesis(tau, float(th_fine))
+            vf, ic = fitter.full(hyp)
+            fits.append((ic, hyp, vf))
+    ic, hyp, vf = min(fits, key=lambda f: f[0])
+    best = Model(hyp, vf, ic, _process_causes(hyp))
+    # backward elimination: drop what does not earn its place
+    improved = True
+    while improved and best.causes:
+        improved = False
+        for cause in best.causes:
+            h = best.hypothesis
+            if cause == "process_gain":
+                h = replace(h, gain_free=False)
+            elif cause == "process_type":
+                h = replace(h, dynamics=replace(h.dynamics, time_constant_s=None))
+            else:
+                h = replace(h, dynamics=replace(h.dynamics, dead_time_s=0.0))
+            vf, ic = fitter.full(h)
+            if ic <= best.criterion:
+                best, improved = Model(h, vf, ic, _process_causes(h)), True
+                break
+    return best
+
+
 def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     """Forward selection over the catalogue from the canonical loop (see the module's docstring)."""
     fitter = Fitter(record)
@@ -355,13 +413,30 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     steps: list[dict[str, Candidate]] = []
     q = lattice.quantum(record.pv_pct)
     remaining = list(SEARCHED)
+    # the process identified as a whole: the way in for loops that are not the canonical level loop
+    process = identify_process(fitter)
     while remaining and len(current.causes) < max_causes:
         step, current = _forward_step(fitter, current, remaining)
+        if len(steps) == 0 and len(process.causes) > 1 and process.criterion < current.criterion:
+            for c in process.causes:
+                params = {k: v for k, v in cause_parameters(process).items() if k in _params_of(c)}
+                step[c] = Candidate(
+                    c,
+                    params,
+                    process.error_pct(record),
+                    process.criterion,
+                    process.criterion - base.criterion,
+                    accepted=True,
+                    note="identified with " + ", ".join(x for x in process.causes if x != c),
+                )
+            current = process
         steps.append(step)
         accepted = [c for c, cand in step.items() if cand.accepted]
         if not accepted:
             break
-        remaining.remove(accepted[0])
+        for c in accepted:
+            if c in remaining:
+                remaining.remove(c)
     if q is not None:
         qm = _quantised(record, current, q)
         accepted = current.criterion - qm.criterion > MARGIN

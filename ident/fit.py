@@ -584,7 +584,8 @@ def simulated_pv(vf: ValveFit, record: Record) -> np.ndarray:
     Open loop in the process: what the model says PV did, not a one-sample prediction from the data.
     """
     u = stem_path(vf, record)
-    y = vf.gain_ratio * vf.tf.response(u[None, :])[0]
+    # deviations from the first position: the process starts at rest with the stem where it is
+    y = vf.gain_ratio * vf.tf.response(u[None, :] - u[0])[0]
     t = record.t_s / max(record.t_s[-1], 1e-9)
     x = np.stack([np.ones(record.n), t, *vf.tf.free_responses(record.n)], axis=1)
     if vf.hypothesis.osc_period_s:
