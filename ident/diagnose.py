@@ -133,6 +133,10 @@ APPLY: dict[str, Callable[[Hypothesis, float], Hypothesis]] = {
     "dead_time": lambda h, v: replace(h, dynamics=replace(h.dynamics, dead_time_s=v)),
     "sensor_lag": lambda h, v: replace(h, dynamics=replace(h.dynamics, sensor_tau_s=v)),
     "process_type": lambda h, v: replace(h, dynamics=replace(h.dynamics, time_constant_s=v)),
+    # a plant loop differs from the level loop in gain and type at once: neither helps alone
+    "process_gain+process_type": lambda h, v: replace(
+        h, gain_free=True, dynamics=replace(h.dynamics, time_constant_s=v)
+    ),
     "actuator_lag": lambda h, v: replace(h, actuator_tau_s=v),
     "process_gain": lambda h, v: replace(h, gain_free=True),
     "external_oscillation": lambda h, v: replace(h, osc_period_s=v),
@@ -145,8 +149,8 @@ def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
         return ts * np.arange(0.1, 12.01, 0.1)
     if cause in ("sensor_lag", "actuator_lag"):
         return ts * np.geomspace(0.3, 20, 18)
-    if cause == "process_type":
-        return np.geomspace(2 * ts, span / 3, 16)
+    if cause in ("process_type", "process_gain+process_type"):
+        return np.geomspace(0.05 * ts, span / 3, 18)  # longer lags than a third of the record read as integrating
     if cause == "process_gain":
         return np.array([1.0])
     if cause == "external_oscillation":
@@ -208,8 +212,11 @@ class Fitter:
 
         return refit(self.record, hyp, slips)
 
-    def full(self, hyp: Hypothesis) -> tuple[ValveFit, float]:
-        vf = fit_valve(self.record, hyp, self.paths([(hyp.dynamics, hyp.osc_period_s)])[0], search="full")
+    def full(self, hyp: Hypothesis, start: ValveFit | None = None) -> tuple[ValveFit, float]:
+        """The full fit; ``start``, a fitted valve (the current model's), is searched from as well."""
+        valve = None if start is None else (start.band_pct, start.stop_pct, start.level0_pct)
+        path = self.paths([(hyp.dynamics, hyp.osc_period_s)])[0]
+        vf = fit_valve(self.record, hyp, path, search="full", start=valve)
         return vf, criterion(vf.rss, vf.n_params, self.record.n_fit)
 
 
@@ -226,14 +233,27 @@ class Screened:
     fits: list[ValveFit]
 
 
+OSC_RESCREENED = 3
+
+
 def _screen(fitter: Fitter, cause: str, current: Model) -> Screened | None:
-    """The cause's parameter on its grid, with first-pass fits (every slip as read)."""
+    """The cause's parameter on its grid, with first-pass fits (every slip as read).
+
+    Periods of an external oscillation are scanned with the slips read as if there were none
+    (cheap: one segmentation), and the best few again with the load taken out before the slips
+    are read: the sine otherwise reads as extra slips and spoils every first-pass fit.
+    """
     grid = _grid(cause, fitter.record, current)
     if grid.size == 0:
         return None
     hyps = [APPLY[cause](current.hypothesis, v) for v in grid]
     scored = fitter.fast(hyps, own_paths=cause != "external_oscillation")
-    return Screened(cause, grid, np.array([ic for _, ic in scored]), [vf for vf, _ in scored])
+    crit = np.array([ic for _, ic in scored])
+    fits = [vf for vf, _ in scored]
+    if cause == "external_oscillation":
+        for i in np.argsort(crit)[:OSC_RESCREENED]:
+            ((fits[i], crit[i]),) = fitter.fast([hyps[i]], own_paths=True)
+    return Screened(cause, grid, crit, fits)
 
 
 def _local_minima(c: np.ndarray, count: int) -> list[int]:
@@ -252,11 +272,18 @@ def _fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
     values = [float(sc.grid[i]) for i in minima]
     if sc.cause != "process_gain" and sc.grid.size > 1:
         values += [float(v) for v in _between(sc.grid, minima[0])]
-    fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v))) for v in dict.fromkeys(values)]
+    if "process_type" in sc.cause:  # a lag as long as the grid's longest is no lag the record can tell
+        values = [v for v in values if v < 0.999 * sc.grid.max()] or [float(sc.grid[-2])]
+    fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v), current.fit)) for v in dict.fromkeys(values)]
     value, vf, ic = min(fits, key=lambda f: f[2])
     hyp = APPLY[sc.cause](current.hypothesis, value)
     amplitude = fit.load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
-    return Model(hyp, vf, ic, (*current.causes, sc.cause), current.quantum_pct, None, amplitude)
+    return Model(hyp, vf, ic, (*current.causes, *_names(sc.cause)), current.quantum_pct, None, amplitude)
+
+
+def _names(move: str) -> tuple[str, ...]:
+    """The catalogue causes a move of the search names (one, or two searched together)."""
+    return tuple(move.split("+"))
 
 
 def _baseline(fitter: Fitter, current: Model, tried: Model) -> Model:
@@ -271,7 +298,15 @@ def _baseline(fitter: Fitter, current: Model, tried: Model) -> Model:
     return replace(current, fit=vf, criterion=ic) if ic < current.criterion else current
 
 
-SEARCHED = ("process_gain", "process_type", "dead_time", "sensor_lag", "actuator_lag", "external_oscillation")
+SEARCHED = (
+    "process_gain",
+    "process_type",
+    "process_gain+process_type",
+    "dead_time",
+    "sensor_lag",
+    "actuator_lag",
+    "external_oscillation",
+)
 
 
 ANCHORS = 8
@@ -333,7 +368,7 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
             sc = screened[c]
             i = int(np.argmin(sc.criteria))
             hyp = APPLY[c](current.hypothesis, float(sc.grid[i]))
-            m = Model(hyp, sc.fits[i], float(sc.criteria[i]), (*current.causes, c))
+            m = Model(hyp, sc.fits[i], float(sc.criteria[i]), (*current.causes, *_names(c)))
             params = {k: v for k, v in cause_parameters(m).items() if k in _params_of(c)}
             tried[c] = Candidate(
                 c, params, m.error_pct(record), None, None, note="screened out: first-pass fit far behind the best"
@@ -347,64 +382,6 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     return tried, current
 
 
-PROCESS_CAUSES = ("process_gain", "process_type", "dead_time")
-PROCESS_FULL_FITS = 4
-
-
-def _process_hypothesis(tau: float | None, theta: float) -> Hypothesis:
-    return Hypothesis(Dynamics(tau, theta), gain_free=True)
-
-
-def _process_causes(hyp: Hypothesis) -> tuple[str, ...]:
-    d = hyp.dynamics
-    named = ("process_gain",) if hyp.gain_free else ()
-    named += ("process_type",) if d.time_constant_s is not None else ()
-    return named + (("dead_time",) if d.dead_time_s > 0 else ())
-
-
-def identify_process(fitter: Fitter) -> Model:
-    """The process identified from the data: integrating or first order, gain and dead time together.
-
-    A plant loop (a flow loop sampled every 10 s, say) differs from the canonical level loop in
-    gain, type and dead time at once; tried one at a time, none of them helps alone.  Screened on
-    a grid with first-pass fits, the best few fitted in full, the dead time refined; then every
-    part that does not earn its place is dropped again (backward elimination).
-    """
-    record = fitter.record
-    ts, span = record.ts_s, record.n * record.ts_s
-    taus = [None, *np.geomspace(0.05 * ts, span / 3, 14)]
-    thetas = ts * np.array([0, 0.5, 1, 1.5, 2, 3, 4, 6, 8])
-    grid = [(tau, th) for tau in taus for th in thetas]
-    scored = fitter.fast([_process_hypothesis(tau, th) for tau, th in grid])
-    order = np.argsort([ic for _, ic in scored])[:PROCESS_FULL_FITS]
-    fits = []
-    for i in order:
-        tau, th = grid[i]
-        for th_fine in np.unique(np.clip(th + ts * np.array([-0.3, 0.0, 0.3]), 0, None)):
-            hyp = _process_hypothesis(tau, float(th_fine))
-            vf, ic = fitter.full(hyp)
-            fits.append((ic, hyp, vf))
-    ic, hyp, vf = min(fits, key=lambda f: f[0])
-    best = Model(hyp, vf, ic, _process_causes(hyp))
-    # backward elimination: drop what does not earn its place
-    improved = True
-    while improved and best.causes:
-        improved = False
-        for cause in best.causes:
-            h = best.hypothesis
-            if cause == "process_gain":
-                h = replace(h, gain_free=False)
-            elif cause == "process_type":
-                h = replace(h, dynamics=replace(h.dynamics, time_constant_s=None))
-            else:
-                h = replace(h, dynamics=replace(h.dynamics, dead_time_s=0.0))
-            vf, ic = fitter.full(h)
-            if ic <= best.criterion:
-                best, improved = Model(h, vf, ic, _process_causes(h)), True
-                break
-    return best
-
-
 def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     """Forward selection over the catalogue from the canonical loop (see the module's docstring)."""
     fitter = Fitter(record)
@@ -413,30 +390,14 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     steps: list[dict[str, Candidate]] = []
     q = lattice.quantum(record.pv_pct)
     remaining = list(SEARCHED)
-    # the process identified as a whole: the way in for loops that are not the canonical level loop
-    process = identify_process(fitter)
     while remaining and len(current.causes) < max_causes:
         step, current = _forward_step(fitter, current, remaining)
-        if len(steps) == 0 and len(process.causes) > 1 and process.criterion < current.criterion:
-            for c in process.causes:
-                params = {k: v for k, v in cause_parameters(process).items() if k in _params_of(c)}
-                step[c] = Candidate(
-                    c,
-                    params,
-                    process.error_pct(record),
-                    process.criterion,
-                    process.criterion - base.criterion,
-                    accepted=True,
-                    note="identified with " + ", ".join(x for x in process.causes if x != c),
-                )
-            current = process
         steps.append(step)
         accepted = [c for c, cand in step.items() if cand.accepted]
         if not accepted:
             break
-        for c in accepted:
-            if c in remaining:
-                remaining.remove(c)
+        named = set(_names(accepted[0]))
+        remaining = [m for m in remaining if not named & set(_names(m))]
     if q is not None:
         qm = _quantised(record, current, q)
         accepted = current.criterion - qm.criterion > MARGIN
@@ -475,10 +436,10 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     )
 
 
-def _params_of(cause: str) -> tuple[str, ...]:
+def _params_of(move: str) -> tuple[str, ...]:
     from sim.extensions import CATALOGUE
 
-    return CATALOGUE[cause]
+    return tuple(p for c in _names(move) for p in CATALOGUE[c])
 
 
 def _first_look(steps: list[dict[str, Candidate]]) -> dict[str, Candidate]:

@@ -360,7 +360,12 @@ def _own_params(hyp: Hypothesis) -> int:
 
 
 def fit_valve(
-    record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float = 1.0, search: str = "full"
+    record: Record,
+    hyp: Hypothesis,
+    path: StemPath,
+    nominal_gain: float = 1.0,
+    search: str = "full",
+    start: tuple[float, float, float] | None = None,
 ) -> ValveFit:
     """The valve-model fit under ``hyp``.
 
@@ -369,6 +374,7 @@ def fit_valve(
     for each candidate the valve model decides its own slips from the drive (``walk``), and a
     read slip the model does not make is forced, at the price of a parameter.  The least
     squares re-solve stop and the gain for every candidate; the criterion picks the band.
+    ``start`` (band, stop, level0, % of OP), say another model's valve, is searched around too.
     """
     tf = transfer_function(hyp.dynamics, record.ts_s)
     omega = 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None
@@ -399,11 +405,16 @@ def fit_valve(
     read_levels = _read_levels(path, best) if RESYNC_LEVELS else None
     n, fixed = record.n_fit, best.fit.n_params + _own_params(hyp)
     tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
-    winner = (np.inf, read)
-    for grid in SEARCH_GRIDS[search]:
-        centre = band0 if not np.isfinite(winner[0]) else winner[0]
-        bands = centre * (1 + grid)
-        stops, levels = np.full(bands.size, best.stop_pct), np.full(bands.size, best.level0_pct)
+    winner = (np.inf, read, best.stop_pct, best.level0_pct)
+    centres = [(band0, best.stop_pct, best.level0_pct)]
+    if start is not None and all(np.isfinite(start)) and start[0] > 0:
+        centres.append(tuple(float(x) for x in start))
+    for g, grid in enumerate(SEARCH_GRIDS[search]):
+        if g > 0:
+            centres = [winner[0:1] + winner[2:4]] if np.isfinite(winner[0]) else centres[:1]
+        bands = np.concatenate([c[0] * (1 + grid) for c in centres])
+        stops = np.concatenate([np.full(grid.size, c[1]) for c in centres])
+        levels = np.concatenate([np.full(grid.size, c[2]) for c in centres])
         for _ in range(WALK_ITERATIONS):
             cands = walk(read, drive, bands, stops, levels, window, read_levels)
             regs = np.stack([path_regressors(c, record.n, record.ts_s, hyp.snapshot) for c in cands])
@@ -415,10 +426,10 @@ def fit_valve(
         tried_band.extend(bands), tried_ic.extend(ic)
         i = int(np.argmin(ic))
         if ic[i] < min(tried_ic[: -bands.size]):
-            winner = (float(bands[i]), cands[i])
+            winner = (float(bands[i]), cands[i], float(stops[i]), float(levels[i]))
     if not np.isfinite(winner[0]):
         return best
-    band, slips = winner
+    band, slips = winner[0], winner[1]
     fitted = _finish(record, hyp, slips, tf, q, nominal_gain)
     tried_band, tried_ic = np.array(tried_band[1:]), np.array(tried_ic[1:])
     inside = tried_band[tried_ic - tried_ic.min() <= 1.0]
