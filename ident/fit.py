@@ -398,7 +398,9 @@ def fit_valve(
         best = _finish(record, hyp, read, tf, q, nominal_gain)
     band0, band0_se, _ = _band(best, drive)
     best = replace(best, band_pct=band0, band_se=band0_se)
-    usable = np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct) and np.isfinite(best.level0_pct)
+    if not np.isfinite(best.level0_pct):  # no piece before the first slip to read it from: it hardly matters
+        best = replace(best, level0_pct=float(drive.mean[0]))
+    usable = np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct)
     if search == "read" or not usable:
         return best
     window = 2 + int(round(hyp.dynamics.sensor_tau_s / record.ts_s))
