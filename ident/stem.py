@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ident import lattice
 from ident.process import Dynamics, transfer_function
 from ident.segment import segment_ends
 
@@ -43,9 +44,15 @@ class StemPath:
 
 
 def pv_noise_sd(pv: np.ndarray) -> float:
-    """White measurement noise on PV, from the MAD of its second differences (ramps and levels cancel)."""
+    """White measurement noise on PV, from the MAD of its second differences (ramps and levels cancel).
+
+    A record stored in steps has most second differences exactly zero: its noise is at least the
+    rounding's, a step over the square root of 12.
+    """
     d2 = np.diff(pv, n=2)
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+    sd = float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+    q = lattice.quantum(pv)
+    return max(sd, q / np.sqrt(12.0)) if q else sd
 
 
 def inverse_filter(dynamics: Dynamics, ts_s: float) -> tuple[np.ndarray, int]:
