@@ -202,7 +202,7 @@ class Fitter:
         out = []
         keys = [(h.dynamics, h.osc_period_s if own_paths else None) for h in hyps]
         for h, p in zip(hyps, self.paths(keys), strict=True):
-            vf = fit_valve(self.record, h, p, search="read")
+            vf = fit_valve(self.record, h, p, search="quick")
             out.append((vf, criterion(vf.rss, vf.n_params, self.record.n_fit)))
         return out
 

@@ -318,7 +318,7 @@ def _batch_fit(
     target = np.broadcast_to(y, (regs.shape[0], y.size)) if hyp.gain_free else y[None, :] - nominal_gain * x[:, 0]
     gram = np.einsum("cin,cjn->cij", cols, cols)
     rhs = np.einsum("cin,cn->ci", cols, target)
-    ridge = 1e-9 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(gram.shape[1])
+    ridge = (1e-9 * np.trace(gram, axis1=1, axis2=2)[:, None, None] + 1e-12) * np.eye(gram.shape[1])
     solved = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
     resid = target - np.einsum("ci,cin->cn", solved, cols)
     coef = np.zeros((regs.shape[0], 4))

@@ -66,8 +66,24 @@ def inverse_filter(dynamics: Dynamics, ts_s: float) -> tuple[np.ndarray, int]:
         n_taps = int(np.ceil(np.log(1e-6) / np.log(r))) + 1 if r > 0 else 1
         taps = np.convolve([1.0, -p], r ** np.arange(n_taps))[:n_taps]
         c = np.convolve(c, taps * (1 - r) / (1 - p))
-    shift = 1 + int(round(dynamics.dead_time_s / ts_s + (0.5 if dynamics.sensor_tau_s > 0 else 0.0)))
-    return c, shift
+    return c, _half_way(dynamics, ts_s, c)
+
+
+def _half_way(dynamics: Dynamics, ts_s: float, c: np.ndarray) -> int:
+    """The shift that puts a step of the input where the recovered input is half way up.
+
+    A segmentation places a smeared jump at the first sample past half its height (``_path``),
+    so this is where the recovered input shows a slip in interval k.
+    """
+    start = c.size + 5  # past the filter's own warm-up
+    lag = dynamics.dead_time_s + 5 * (dynamics.sensor_tau_s + (dynamics.time_constant_s or 0.0))
+    n = start + c.size + int(np.ceil(lag / ts_s)) + 20
+    u = np.zeros(n)
+    u[start:] = 1.0
+    pv = transfer_function(dynamics, ts_s).response(u[None, :])[0]
+    v = np.convolve(pv, c, mode="valid")
+    first = int(np.argmax(v >= 0.5 * v[-1]))
+    return first + c.size - 1 - start
 
 
 def input_estimate(pv: np.ndarray, dynamics: Dynamics, ts_s: float) -> tuple[np.ndarray, int, float]:
