@@ -339,8 +339,6 @@ S_GRID = np.linspace(-0.2, 0.2, 21)
 S_FINE = np.linspace(-0.025, 0.025, 11)
 WALK_ITERATIONS = 2
 SEARCH_GRIDS = {"read": (), "quick": (np.array([-0.04, 0.0, 0.04]),), "full": (S_GRID, S_FINE)}
-RESYNC_LEVELS = False
-"""Continue after a confirmed slip from the data's landing estimate (an observer); off: from the model's."""
 
 
 def criterion(rss: np.ndarray | float, n_params: np.ndarray | int, n: int) -> np.ndarray | float:
@@ -404,7 +402,10 @@ def fit_valve(
     if search == "read" or not usable:
         return best
     window = 2 + int(round(hyp.dynamics.sensor_tau_s / record.ts_s))
-    read_levels = _read_levels(path, best) if RESYNC_LEVELS else None
+    # at a moving drive (an actuator lag) every landing is the last one plus a jump: an error in one
+    # carries into all the next, and only the data can stop it, as an observer would.  At a held
+    # drive a landing is the drive less stop, which re-synchronises by itself.
+    read_levels = _read_levels(path, best) if drive.moves else None
     n, fixed = record.n_fit, best.fit.n_params + _own_params(hyp)
     tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
     winner = (np.inf, read, best.stop_pct, best.level0_pct)
