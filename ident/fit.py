@@ -519,20 +519,21 @@ class Friction:
 
 
 def friction(vf: ValveFit, record: Record) -> Friction:
-    """S (searched, or from the brackets), stop and J from the least squares (one from the other and S where
-    only one kind of slip reads it), with their standard errors."""
+    """S (searched, or from the brackets), J and stop (one from the least squares, the other the
+    difference), with their standard errors."""
     s, s_se = vf.band_pct, vf.band_se
-    stop, stop_se = vf.stop_pct, vf.stop_se
-    if not np.isfinite(stop) and np.isfinite(vf.jump_pct):
-        stop, stop_se = s - vf.jump_pct, float(np.hypot(s_se, vf.jump_se))
-    if not np.isfinite(s) or not np.isfinite(stop):
+    # slips at a moving drive read J, the band comes from when they happen: stop is the difference;
+    # slips at a held drive read stop, and J is the difference
+    if np.isfinite(vf.jump_pct):
+        j, j_se = vf.jump_pct, vf.jump_se
+        stop, stop_se = s - j, float(np.hypot(s_se, j_se))
+    else:
+        stop, stop_se = vf.stop_pct, vf.stop_se
+        j, j_se = s - stop, float(np.hypot(s_se, stop_se))
+    if not (np.isfinite(s) and np.isfinite(stop)):
         nan = float("nan")
         return Friction(nan, nan, nan, nan, nan, nan, nan, nan, int(vf.slips.read.sum()))
     vf = replace(vf, stop_pct=stop, stop_se=stop_se)
-    if np.isfinite(vf.jump_pct):
-        j, j_se = vf.jump_pct, vf.jump_se
-    else:
-        j, j_se = s - stop, float(np.hypot(s_se, stop_se))
     fs = s * PCT_OF_500LBF_PER_PCT
     stop_lbf = pct_to_lbf(vf.stop_pct * PCT_OF_500LBF_PER_PCT)
     fd_lbf = stop_lbf - VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs) - stop_lbf)
