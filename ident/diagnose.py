@@ -56,14 +56,15 @@ class Model:
         """RMS difference between measured PV and PV as the model simulates it from OP, % of span.
 
         The simulation is open loop in the process (its offset and drift fitted): the figure a
-        plant engineer sees in the plot.  A quantised record is compared on its own lattice.
+        plant engineer sees in the plot.  For a record on a lattice, the rounding's own variance
+        (q^2/12) is taken out: no model of the loop can remove it.
         """
         sim = fit.simulated_pv(self.fit, record)
-        if self.quantum_pct:
-            origin = float(record.pv_pct[np.argmin(np.abs(record.pv_pct))])
-            sim = lattice.snap(sim, self.quantum_pct, origin)
         skip = record.skip
-        return float(np.sqrt(np.mean((record.pv_pct[skip:] - sim[skip:]) ** 2)))
+        mse = float(np.mean((record.pv_pct[skip:] - sim[skip:]) ** 2))
+        if self.quantum_pct:
+            mse = max(mse - self.quantum_pct**2 / 12.0, 1e-12 * mse)
+        return float(np.sqrt(mse))
 
 
 @dataclass(frozen=True)
@@ -309,40 +310,31 @@ SEARCHED = (
 )
 
 
-ANCHORS = 8
+ROUNDING_SHARE = 0.1
+"""Share of the remaining error the rounding must account for to be named."""
 
 
-def _quantised(record: Record, current: Model, q: float) -> Model:
-    """The current model's one-sample predictions snapped to the record's lattice.
+def _quantised(record: Record, current: Model, q: float) -> Model | None:
+    """The record's lattice as a cause: the part of the model's error that the rounding itself adds.
 
-    A prediction from the last stored PV alone carries that sample's rounding error (up to half a
-    step); the model carries the last ``ANCHORS`` stored samples forward to the same instant and
-    averages them, so that the rounding errors, which differ from sample to sample, average out.
+    Stored values on a lattice of step q carry a rounding error of variance q^2/12 that no model of
+    the loop can remove.  The lattice is read from the values (``ident.lattice``); it is named when
+    its variance is at least ``ROUNDING_SHARE`` of the model's remaining error, and the extended
+    error is what remains once it is taken out.  Its criterion treats that variance as known noise.
     """
-    origin = float(record.pv_pct[np.argmin(np.abs(record.pv_pct))])
-    h, start = record.horizon, record.skip
-    pred = current.fit.fit.prediction  # model of PV[k] - PV[k - h] for the compared samples
-    n = pred.size
-    actual = record.pv_pct[start + h : start + h + n]
-    # the model's own trajectory (one-step changes accumulated); offsets between it and the data average
-    traj = np.cumsum(pred)
-    offset = actual - traj
-    kernel = np.ones(ANCHORS) / ANCHORS
-    smoothed = np.convolve(offset, kernel, mode="full")[: offset.size]
-    ready = np.arange(n) >= ANCHORS  # the average of the last ANCHORS offsets, known before sample k
-    level = np.where(ready, np.concatenate([[np.nan], smoothed[:-1]]) + traj, np.nan)
-    predicted = lattice.snap(level, q, origin)
-    err = actual - predicted
-    err = err[ready]
-    rss = float(np.sum(err**2)) * n / max(err.size, 1)
-    n_params = current.fit.n_params + 1
+    error = current.error_pct(record)
+    rounding = q * q / 12.0
+    if error <= 0 or rounding < ROUNDING_SHARE * error**2:
+        return None
+    left = max(error**2 - rounding, 1e-12 * error**2)
+    delta = record.n_fit * np.log(left / error**2) + np.log(record.n_fit)
     return Model(
         current.hypothesis,
         current.fit,
-        criterion(rss, n_params, record.n_fit),
+        current.criterion + float(delta),
         (*current.causes, "quantization"),
         q,
-        rss,
+        current.rss * left / error**2,
         current.load_amplitude_pct,
     )
 
@@ -382,13 +374,10 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     return tried, current
 
 
-def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
-    """Forward selection over the catalogue from the canonical loop (see the module's docstring)."""
-    fitter = Fitter(record)
-    vf, ic = fitter.full(Hypothesis())
-    base = current = Model(Hypothesis(), vf, ic)
-    steps: list[dict[str, Candidate]] = []
-    q = lattice.quantum(record.pv_pct)
+def _select(fitter: Fitter, start: Model, max_causes: int) -> tuple[Model, list[dict[str, Candidate]]]:
+    """Forward selection over the catalogue from ``start``, then the record's lattice."""
+    record = fitter.record
+    current, steps = start, []
     remaining = list(SEARCHED)
     while remaining and len(current.causes) < max_causes:
         step, current = _forward_step(fitter, current, remaining)
@@ -398,9 +387,12 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
             break
         named = set(_names(accepted[0]))
         remaining = [m for m in remaining if not named & set(_names(m))]
-    if q is not None:
-        qm = _quantised(record, current, q)
+    q = lattice.quantum(record.pv_pct)
+    qm = _quantised(record, current, q) if q is not None else None
+    if qm is not None:
         accepted = current.criterion - qm.criterion > MARGIN
+        if not steps:
+            steps.append({})
         steps[-1]["quantization"] = Candidate(
             "quantization",
             {"quantum_pct": q},
@@ -411,7 +403,26 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
         )
         if accepted:
             current = qm
-    _, linear_ic = fitter.full(replace(current.hypothesis, linear_valve=True))
+    return current, steps
+
+
+def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
+    """Forward selection over the catalogue from the canonical loop (see the module's docstring).
+
+    Twice: with the sticky valve and with a valve that follows OP (no stiction).  A loop whose
+    valve does not stick is no canonical loop either, and its process must still be read; the
+    better of the two by the criterion is the diagnosis, and their difference says whether
+    stiction earns its place.
+    """
+    fitter = Fitter(record)
+    vf, ic = fitter.full(Hypothesis())
+    base = Model(Hypothesis(), vf, ic)
+    sticky, sticky_steps = _select(fitter, base, max_causes)
+    linear_hyp = Hypothesis(linear_valve=True)
+    vf_linear, ic_linear = fitter.full(linear_hyp)
+    linear, linear_steps = _select(fitter, Model(linear_hyp, vf_linear, ic_linear), max_causes)
+    stiction_delta = float(linear.criterion - sticky.criterion)
+    chosen, steps = (sticky, sticky_steps) if stiction_delta > 0 else (linear, linear_steps)
     candidates = _first_look(steps)
     candidates["deadband"] = Candidate(
         "deadband",
@@ -424,15 +435,19 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
         "indistinguishable from friction, read as part of fs and fd",
     )
     if "quantization" not in candidates:
-        candidates["quantization"] = Candidate("quantization", {}, None, None, None, note="PV sits on no lattice")
+        q = lattice.quantum(record.pv_pct)
+        note = "PV sits on no lattice" if q is None else f"PV is stored in steps of {q:.3g} %: too fine to matter"
+        candidates["quantization"] = Candidate(
+            "quantization", {} if q is None else {"quantum_pct": q}, None, None, None, note=note
+        )
     return Diagnosis(
         base,
-        current,
+        chosen,
         candidates,
         steps,
         friction(base.fit, record),
-        friction(current.fit, record),
-        float(linear_ic - current.criterion),
+        friction(chosen.fit, record),
+        stiction_delta,
     )
 
 

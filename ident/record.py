@@ -64,3 +64,25 @@ def orthonormal_basis(columns: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
     u, s, _ = np.linalg.svd(columns, full_matrices=False)
     keep = s > rtol * max(s.max(), 1e-300)
     return u[:, keep]
+
+
+NOISY_CHANGE_CORRELATION = 0.0
+"""Lag-1 correlation of PV's one-sample changes below which PV's noise hides its own changes."""
+
+
+def choose_horizon(pv_pct: np.ndarray) -> int:
+    """The compared horizon for a record: one sample, unless white noise dominates PV's changes.
+
+    A loop whose PV ramps (an integrating level, any loop sampled fast) has smooth one-sample
+    changes, positively correlated from sample to sample; where measurement noise dominates
+    (flow loops sampled every 10 s) the changes are the noise's differences, correlated about
+    -0.5, and a one-sample comparison sees little but noise: compare over a longer horizon,
+    about 1/75 of the record (4 to 30 samples), so that the valve's moves stand out.
+    """
+    d = np.diff(np.asarray(pv_pct, float))
+    d = d - d.mean()
+    power = float(np.sum(d * d))
+    c1 = float(np.sum(d[1:] * d[:-1]) / power) if power > 0 else 1.0
+    if c1 >= NOISY_CHANGE_CORRELATION:
+        return 1
+    return int(np.clip(round(d.size / 75), 4, 30))

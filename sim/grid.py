@@ -81,7 +81,7 @@ EFFECT_RANGES: dict[str, dict[str, tuple[float, float]]] = {
     "deadband": {"deadband_pct": (2.0, 10.0)},
     "actuator_lag": {"actuator_tau_s": (1.5, 8.0)},
     "sensor_lag": {"sensor_tau_s": (1.5, 8.0)},
-    "quantization": {"quantum_pct": (0.05, 0.2)},
+    "quantization": {"quantum_pct": (0.1, 0.3)},
     "process_gain": {"gain_ratio": (0.5, 2.0)},
     "external_oscillation": {"osc_period_s": (25.0, 200.0), "osc_amplitude_pct": (0.5, 3.0)},
     "process_type": {"time_constant_s": (20.0, 200.0)},

@@ -67,7 +67,7 @@ def _params(cause: str) -> tuple[str, ...]:
 def run(args: argparse.Namespace) -> int:
     from agent.historian import read_export
     from ident.diagnose import diagnose
-    from ident.record import Record
+    from ident.record import Record, choose_horizon
     from ident.report import diagnosis_report, valve_check_out
     from ident.valve_check import check_valve
 
@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
             mv = export.mv[-keep:] if export.mv is not None else None
             if op.size < MIN_SAMPLES:
                 raise StictionError(f"{path}: {op.size} samples, need at least {MIN_SAMPLES} to diagnose")
-            record = Record(op, pv, export.ts_s)
+            record = Record(op, pv, export.ts_s, horizon=choose_horizon(pv))
             d = diagnose(record, max_causes=args.max_causes)
             check = valve_check_out(check_valve(op, mv, export.ts_s)) if mv is not None else None
             report = diagnosis_report(path.stem, record, d, warnings, check)
