@@ -25,12 +25,25 @@ def quantum(x: np.ndarray, tolerance: float = 0.02) -> float | None:
     gaps = gaps[gaps > 1e-9 * scale]
     if gaps.size == 0:
         return None
-    q = float(np.min(gaps))
-    # robust to one odd gap: the smallest gap that most gaps are whole multiples of
-    for cand in np.unique(np.round(np.sort(gaps)[: min(gaps.size, 5)], 12)):
+    # candidates: the smallest distinct gaps (an export's decimal rounding makes equal gaps differ
+    # in their last digits, so gaps within 2 % of each other count as one)
+    cands = []
+    for g in np.sort(gaps):
+        if not cands or g > 1.02 * cands[-1]:
+            cands.append(float(g))
+        if len(cands) == 5:
+            break
+    span = float(np.ptp(values))
+    for cand in cands:
+        # the step, refined over every gap's whole number of steps
+        steps = np.maximum(np.round(gaps / cand), 1.0)
+        cand = float(np.sum(steps * gaps) / np.sum(steps * steps))
         k = (values - values[0]) / cand
-        if np.mean(np.abs(k - np.round(k)) < tolerance) > 0.99:
-            q = float(cand)
+        on_grid = np.mean(np.abs(k - np.round(k)) < max(tolerance, 0.05)) > 0.99
+        # a lattice is used densely: a step far finer than the values' spacing is the export's rounding
+        dense = values.size >= 0.2 * (span / cand + 1)
+        if on_grid and dense:
+            q = cand
             break
     else:
         return None
@@ -40,3 +53,19 @@ def quantum(x: np.ndarray, tolerance: float = 0.02) -> float | None:
 def snap(x: np.ndarray, q: float, origin: float) -> np.ndarray:
     """``x`` rounded onto the lattice ``origin + k q``."""
     return origin + np.round((np.asarray(x) - origin) / q) * q
+
+
+def resolution(x: np.ndarray) -> float | None:
+    """The typical step between a record's distinct values, where it has few of them (None otherwise).
+
+    Wider than ``quantum``: values stored in steps that vary along the range (a flow computed
+    from a quantised differential pressure, say) have a resolution but no single lattice.
+    """
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    values = np.unique(x)
+    if values.size < MIN_STEPS or values.size > 0.5 * x.size:
+        return None
+    gaps = np.diff(values)
+    gaps = gaps[gaps > 1e-3 * np.ptp(values)]  # near-duplicates: the export's decimal rounding
+    return float(np.median(gaps)) if gaps.size else None

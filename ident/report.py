@@ -83,6 +83,25 @@ def valve_check_out(v) -> schema.ValveCheck:
     )
 
 
+def impossible_valve(f: Friction, op_range_pct: float) -> str | None:
+    """Why no valve can have this friction, or None: a band wider than OP ever moved, a jump
+    below zero or above the band (each beyond two standard errors)."""
+    if not (np.isfinite(f.s_pct) and np.isfinite(f.j_pct)):
+        return None
+    s_se = f.s_se_pct if np.isfinite(f.s_se_pct) else 0.0
+    j_se = f.j_se_pct if np.isfinite(f.j_se_pct) else 0.0
+    if f.s_pct <= 0 or f.s_pct - 2 * s_se > op_range_pct:
+        return f"the fit reads a band S of {f.s_pct:.3g} % where OP moved {op_range_pct:.3g} %: no valve slips so"
+    if f.j_pct + 2 * j_se < 0 or f.j_pct - 2 * j_se > f.s_pct + 2 * s_se:
+        return f"the fit reads a jump J of {f.j_pct:.3g} % with a band of {f.s_pct:.3g} %: no valve jumps so"
+    return None
+
+
+def _without_friction(f: Friction) -> Friction:
+    nan = float("nan")
+    return Friction(nan, nan, nan, nan, nan, nan, nan, nan, f.slips_read)
+
+
 def diagnosis_report(
     loop_id: str,
     record: Record,
@@ -91,6 +110,17 @@ def diagnosis_report(
     valve_check: schema.ValveCheck | None = None,
 ) -> schema.DiagnosisReport:
     f = d.friction
+    notes = list(warnings or [])
+    op_range = float(np.ptp(record.op_pct))
+    for which, fr in (("extended", f), ("canonical", d.base_friction)):
+        why = impossible_valve(fr, op_range)
+        if why:
+            notes.append(f"{which} model: {why}; its friction numbers are withheld")
+    if impossible_valve(f, op_range):
+        f = _without_friction(f)
+    base_friction = (
+        d.base_friction if not impossible_valve(d.base_friction, op_range) else _without_friction(d.base_friction)
+    )
     params = cause_parameters(d.extended)
     candidates = {
         c: schema.CauseCandidate(
@@ -105,7 +135,6 @@ def diagnosis_report(
         )
         for c, cand in d.candidates.items()
     }
-    notes = list(warnings or [])
     if d.linear_valve_delta <= 0:
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
@@ -129,7 +158,7 @@ def diagnosis_report(
         j_pct=_opt(f.j_pct),
         s_se_pct=_opt(f.s_se_pct),
         j_se_pct=_opt(f.j_se_pct),
-        base_friction=friction_out(d.base_friction),
+        base_friction=friction_out(base_friction),
         process=process_out(d.extended, record),
         stiction_delta_criterion=float(d.linear_valve_delta),
         slips=int(d.extended.fit.slips.at.size),

@@ -51,7 +51,7 @@ def pv_noise_sd(pv: np.ndarray) -> float:
     """
     d2 = np.diff(pv, n=2)
     sd = float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
-    q = lattice.quantum(pv)
+    q = lattice.resolution(pv)
     return max(sd, q / np.sqrt(12.0)) if q else sd
 
 
