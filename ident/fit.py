@@ -428,9 +428,12 @@ def fit_valve(
             ok = np.isfinite(new_stops) & np.isfinite(new_levels)
             stops, levels = np.where(ok, new_stops, stops), np.where(ok, new_levels, levels)
         ic = criterion(rss, fixed + np.array([c.read.sum() for c in cands]), n)
+        # no valve lands beyond its drive or jumps backwards: 0 <= stop <= S (a little noise aside)
+        tol = 0.05 * bands
+        ic = np.where((stops >= -tol) & (stops <= bands + tol), ic, np.inf)
         tried_band.extend(bands), tried_ic.extend(ic)
         i = int(np.argmin(ic))
-        if ic[i] < min(tried_ic[: -bands.size]):
+        if np.isfinite(ic[i]) and ic[i] < min(tried_ic[: -bands.size]):
             winner = (float(bands[i]), cands[i], float(stops[i]), float(levels[i]))
     if not np.isfinite(winner[0]):
         return best

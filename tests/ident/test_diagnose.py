@@ -1,0 +1,89 @@
+"""Diagnose finds what was hidden in a loop it is not told about (issue 11: tests that hide an effect).
+
+Each loop is the canonical loop with one catalogue effect, a magnitude and white noise on PV the
+code under test is not given; diagnose sees OP and PV only.  Seeds are fixed.
+"""
+
+import numpy as np
+import pytest
+
+from ident.diagnose import cause_parameters, diagnose
+from ident.record import Record
+from sim.actuator import actuate
+from sim.disturbance import Disturbance
+from sim.extensions import Extensions
+from sim.loop import LoopSpec, simulate
+from sim.valve import VALVE, Friction, pct_to_lbf
+
+HIDDEN = {
+    "dead_time": (Extensions(dead_time_s=2.7), 41.0, 14.0),
+    "actuator_lag": (Extensions(actuator_tau_s=3.5), 41.0, 14.0),
+    "sensor_lag": (Extensions(sensor_tau_s=4.0), 56.0, 24.0),
+    "process_gain": (Extensions(gain_ratio=1.6), 50.0, 20.0),
+    "process_type": (Extensions(time_constant_s=90.0), 50.0, 20.0),
+    "external_oscillation": (Extensions(osc_period_s=70.0, osc_amplitude_pct=2.0), 40.0, 10.0),
+    "quantization": (Extensions(quantum_pct=0.25), 45.0, 10.0),
+}
+
+
+def _record(ext: Extensions, fs: float, fd: float, seed: int = 3, noise: float = 0.02) -> Record:
+    spec = LoopSpec(fs, fd, disturbance=Disturbance("gaussian", "output", noise), extensions=ext, seed=seed)
+    r = simulate([spec]).kept()
+    return Record(r.op[0], r.pv[0], 1.0)
+
+
+@pytest.mark.parametrize("cause", list(HIDDEN))
+def test_the_hidden_cause_is_named_with_its_parameter(cause):
+    ext, fs, fd = HIDDEN[cause]
+    record = _record(ext, fs, fd)
+    d = diagnose(record)
+    assert d.causes and d.causes[0] == cause, d.causes
+    found = cause_parameters(d.extended)
+    for name, truth in ext.active().items():
+        assert found[name] == pytest.approx(truth, rel=0.25), (name, found[name], truth)
+    assert d.gain_pct(record) > 0
+    if cause != "quantization":  # the rounding is read from the values, not from the valve
+        assert d.friction.fs_pct == pytest.approx(fs, abs=3.0)
+        assert d.friction.fd_pct == pytest.approx(fd, abs=3.0)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_no_cause_is_invented_for_the_canonical_loop(seed):
+    record = _record(Extensions(), 35.0, 12.0, seed=seed, noise=0.03)
+    d = diagnose(record)
+    assert d.causes == ()
+    assert d.gain_pct(record) == 0
+    assert d.friction.fs_pct == pytest.approx(35.0, abs=1.0) and d.friction.fd_pct == pytest.approx(12.0, abs=1.0)
+
+
+def _stem(op: np.ndarray, fs_pct: float, fd_pct: float, deadband_pct: float) -> np.ndarray:
+    """The stem driven open loop by ``op`` (the simulator's own valve assembly)."""
+    friction = Friction.physical(pct_to_lbf(np.array([fs_pct])), pct_to_lbf(np.array([fd_pct])))
+    mv, drive, played = np.array([op[0]]), np.array([op[0]]), np.array([op[0]])
+    out = np.empty(op.size)
+    for k, o in enumerate(op):
+        out[k] = mv[0]
+        a = actuate(np.array([o]), mv, drive, played, friction, np.array([deadband_pct]), np.zeros(1), 1.0)
+        mv, drive, played = a.mv_pct, a.drive_pct, a.played_pct
+    return out
+
+
+def test_a_deadband_before_a_sticky_valve_is_the_same_valve_with_a_wider_band():
+    """Exactly, once the play is taken up: so diagnose reads it as friction and says it cannot tell."""
+    deadband = 6.0
+    fs, fd = 40.0, 15.0
+    # half the width on each side: 12 lbf per % of OP, 5 lbf per percent of 500 lbf
+    widen = deadband / 2 * VALVE.lbf_per_pct / 5.0
+    t = np.arange(2000.0)
+    op = 30 * np.sin(2 * np.pi * t / 300) + 10 * np.sin(2 * np.pi * t / 77)  # any OP will do
+    with_play = _stem(op, fs, fd, deadband)
+    wider = _stem(op, fs + widen, fd + widen, 0.0)
+    settled = np.flatnonzero(np.diff(with_play))[2]  # after the first slips both have forgotten the start
+    assert np.flatnonzero(np.diff(with_play)).size > 20
+    np.testing.assert_allclose(with_play[settled:], wider[settled:], atol=1e-9)
+    record = _record(Extensions(deadband_pct=deadband), fs, fd)
+    d = diagnose(record)
+    assert d.causes == ()
+    assert not d.candidates["deadband"].identifiable
+    assert d.friction.fs_pct == pytest.approx(fs + widen, abs=1.5)
+    assert d.friction.fd_pct == pytest.approx(fd + widen, abs=1.5)
