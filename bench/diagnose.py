@@ -1,10 +1,12 @@
 """``stiction bench diagnose``: per cause, what diagnose names, how well it reads the parameter, and at what cost.
 
 Loops: the canonical loop with one hidden effect each (``sim.grid.effect_loops``), white
-noise of 1-4 % of PV's RMS on PV, OP/PV/SP only.  For every cause: how often it is named
-(the confusion row), the median relative error of its parameters, how often the
-extended model gains on the canonical one, fs/fd error of the canonical and of the
-extended model, and CPU seconds per loop.
+noise of 1-4 % of PV's RMS on PV, OP/PV/SP only (no MV).  For every cause: how often it is
+named (the confusion row: the first cause named), the median relative error of its
+parameters, how often the extended model gains on the canonical one, fs/fd error of the
+canonical and of the extended model, and CPU seconds per loop.  With ``retrain``, the same
+loops are also quantified by ``stiction quantify``'s pipeline with the canonical models and
+with models retrained on the cause (at the middle of its range): same loops, same run.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import os
 import time
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import numpy as np
 
@@ -22,68 +25,156 @@ from ident.record import Record
 from sim.extensions import CATALOGUE
 from sim.grid import EFFECT_RANGES, effect_loops
 from sim.loop import simulate
+from sim.valve import VALVE
 
 SEED = 20261122
-HORIZON = int(os.environ.get("STICTION_H", "1"))
+DEADBAND_WIDENS_PCT = VALVE.lbf_per_pct / 2 / 5.0
+"""A deadband of width d is a band d/2 wider with fd d/2 higher (12 lbf per %, 5 lbf per pp of 500 lbf)."""
+
+
+def _truth(spec) -> list[float]:
+    """fs, fd as the data can tell them: a deadband reads as friction (``tests/ident/test_diagnose.py``)."""
+    widen = spec.extensions.deadband_pct * DEADBAND_WIDENS_PCT
+    return [spec.fs_pct + widen, spec.fd_pct + widen]
 
 
 def _one(spec) -> dict:
     r = simulate([spec]).kept()
-    rec = Record(r.op[0], r.pv[0], float(r.t_s[1] - r.t_s[0]), horizon=HORIZON)
+    rec = Record(r.op[0], r.pv[0], float(r.t_s[1] - r.t_s[0]))
     started = time.process_time()
     d = diagnose(rec)
     seconds = time.process_time() - started
-    truth = spec.extensions.active()
-    named = list(d.causes)
-    params = cause_parameters(d.extended)
     return {
-        "named": named,
-        "truth": truth,
-        "params": params,
+        "named": list(d.causes),
+        "truth": spec.extensions.active(),
+        "params": {k: float(v) for k, v in cause_parameters(d.extended).items()},
         "gain_pct": d.gain_pct(rec),
         "fs_fd_base": [d.base_friction.fs_pct, d.base_friction.fd_pct],
         "fs_fd_ext": [d.friction.fs_pct, d.friction.fd_pct],
-        "fs_fd_true": [spec.fs_pct, spec.fd_pct],
+        "fs_fd_true": _truth(spec),
         "seconds": seconds,
     }
 
 
-def _summary(cause: str, rows: list[dict]) -> dict:
-    named = Counter(r["named"][0] if r["named"] else "none" for r in rows)
-    hit = [(cause in r["named"]) if cause != "none" else not r["named"] for r in rows]
-    rel = []
-    for r in rows:
-        for p, v in r["truth"].items():
-            if p in r["params"] and np.isfinite(r["params"][p]):
-                rel.append(abs(r["params"][p] - v) / abs(v))
-    def mae(key):
-        e = [np.mean(np.abs(np.subtract(r[key], r["fs_fd_true"]))) for r in rows]
-        return float(np.nanmean(e)) if e else float("nan")
+def _mae(rows: list[dict], key: str) -> tuple[float, int]:
+    """Mean absolute fs/fd error over the loops where there is an estimate, and how many those are."""
+    errs = [np.mean(np.abs(np.subtract(r[key], r["fs_fd_true"]))) for r in rows]
+    errs = [e for e in errs if np.isfinite(e)]
+    return (float(np.mean(errs)) if errs else float("nan")), len(errs)
 
+
+def _summary(cause: str, rows: list[dict]) -> dict:
+    first = Counter(r["named"][0] if r["named"] else "none" for r in rows)
+    hit = [(cause in r["named"]) if cause != "none" else not r["named"] for r in rows]
+    rel = [
+        abs(r["params"][p] - v) / abs(v)
+        for r in rows
+        for p, v in r["truth"].items()
+        if p in r["params"] and np.isfinite(r["params"][p])
+    ]
+    base, n_base = _mae(rows, "fs_fd_base")
+    ext, n_ext = _mae(rows, "fs_fd_ext")
     return {
         "n": len(rows),
         "named_share": float(np.mean(hit)),
-        "first_named": dict(named),
+        "first_named": dict(first),
         "param_rel_err_median": float(np.median(rel)) if rel else None,
         "gain_positive_share": float(np.mean([r["gain_pct"] > 0 for r in rows])),
-        "fs_fd_mae_canonical_pp": mae("fs_fd_base"),
-        "fs_fd_mae_extended_pp": mae("fs_fd_ext"),
+        "fs_fd_mae_canonical_pp": base,
+        "fs_fd_mae_extended_pp": ext,
+        "fs_fd_read_canonical": n_base,
+        "fs_fd_read_extended": n_ext,
         "s_per_loop_median": float(np.median([r["seconds"] for r in rows])),
         "false_causes": dict(Counter(c for r in rows for c in r["named"] if c != cause)),
     }
 
 
-def bench_diagnose(per_cause: int = 20, causes: list[str] | None = None, workers: int = 2, progress=None) -> dict:
-    causes = causes or list(EFFECT_RANGES)
-    specs = {c: effect_loops(c, per_cause, SEED + list(EFFECT_RANGES).index(c)) for c in causes}
-    out = {}
+def _pool(workers: int) -> ProcessPoolExecutor:
     # one BLAS thread per worker: the figures are CPU seconds of one core per loop
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[var] = "1"
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+
+
+def bench_diagnose(per_cause: int = 20, causes: list[str] | None = None, workers: int = 2, progress=None) -> dict:
+    causes = causes or list(EFFECT_RANGES)
+    out = {}
+    with _pool(workers) as pool:
         for c in causes:
-            rows = list(pool.map(_one, specs[c]))
+            specs = effect_loops(c, per_cause, SEED + list(EFFECT_RANGES).index(c))
+            rows = list(pool.map(_one, specs))
             out[c] = _summary(c, rows) | {"params": list(CATALOGUE.get(c, ()))}
             if progress:
                 progress(c, out[c])
-    return {"per_cause": out, "loops_per_cause": per_cause}
+    effects = [c for c in out if c not in ("none", "deadband")]
+    return {
+        "per_cause": out,
+        "loops_per_cause": per_cause,
+        "overall": {
+            "named_share_effects": float(np.mean([out[c]["named_share"] for c in effects])) if effects else None,
+            "none_given_a_cause": 1 - out["none"]["named_share"] if "none" in out else None,
+            "fs_fd_mae_canonical_pp": float(np.nanmean([out[c]["fs_fd_mae_canonical_pp"] for c in out])),
+            "fs_fd_mae_extended_pp": float(np.nanmean([out[c]["fs_fd_mae_extended_pp"] for c in out])),
+            "s_per_loop_median": float(np.median([out[c]["s_per_loop_median"] for c in out])),
+        },
+    }
+
+
+def middle_extension(cause: str) -> dict[str, float]:
+    """The cause at the middle of its range in the generated loops (a process gain: its geometric middle)."""
+    out = {}
+    for name, (lo, hi) in EFFECT_RANGES[cause].items():
+        out[name] = float(np.sqrt(lo * hi)) if name == "gain_ratio" else 0.5 * (lo + hi)
+    if cause == "process_gain":
+        out["gain_ratio"] = 1.6  # the range straddles 1; the middle would be no effect
+    return out
+
+
+def _quantify_rows(models_dir: Path | None, specs) -> list[list[float]]:
+    from agent.pipeline import Quantifier, Window
+
+    q = Quantifier(models_dir)
+    r = simulate(specs).kept()
+    windows = [Window(f"l{i}", r.op[i], r.pv[i], 1.0) for i in range(len(specs))]
+    return [[rep.fs_pct, rep.fd_pct] for rep in q.quantify(windows)]
+
+
+def _fs_fd_mae(est: np.ndarray, truth: np.ndarray) -> float:
+    return float(np.nanmean(np.mean(np.abs(est - truth), axis=1)))
+
+
+def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progress=None) -> dict:
+    """Quantify's error with the canonical models and with models retrained on each cause, same loops."""
+    from trainer.train import TrainSettings
+    from trainer.train import run as train
+
+    out = {}
+    for c in causes:
+        if c in ("none", "deadband", "quantization"):
+            continue  # nothing to retrain on: no effect, one the data cannot tell, one of the record only
+        ext = middle_extension(c)
+        models = models_root / (c + "-" + "-".join(f"{k}={v:g}" for k, v in ext.items()))
+        started = time.perf_counter()
+        if not (models / "cycle_ensemble.card.json").exists():
+            train(TrainSettings(models_dir=models, realisations=1, noisy_variants=1, ensemble=2, extensions=ext))
+        trained_s = time.perf_counter() - started
+        from dataclasses import replace
+
+        from sim.extensions import Extensions
+
+        specs = [replace(s, extensions=Extensions(**ext)) for s in effect_loops(c, per_cause, SEED + 1000)]
+        truth = np.array([_truth(s) for s in specs])
+        canonical = np.array(_quantify_rows(None, specs), dtype=float)
+        retrained = np.array(_quantify_rows(models, specs), dtype=float)
+
+        out[c] = {
+            "extension": ext,
+            "models": str(models),
+            "train_s": trained_s,
+            "quantify_canonical_mae_pp": _fs_fd_mae(canonical, truth),
+            "quantify_retrained_mae_pp": _fs_fd_mae(retrained, truth),
+            "n": len(specs),
+        }
+        if progress:
+            progress(c, out[c])
+    return out

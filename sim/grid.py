@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.disturbance import Disturbance
+from sim.extensions import Extensions
 from sim.loop import LoopSpec
 from sim.valve import lbf_to_pct
 
@@ -14,9 +15,14 @@ def training_grid_lbf() -> list[tuple[float, float]]:
     return [(float(fs), float(fd)) for fs in range(500, 0, -10) for fd in range(fs - 10, -1, -10)]
 
 
-def training_specs(loop: str = "level", valve: str = "physical") -> list[LoopSpec]:
+def training_specs(
+    loop: str = "level", valve: str = "physical", extensions: Extensions | None = None
+) -> list[LoopSpec]:
+    """The training grid; ``extensions`` puts every grid point on an extended loop (``stiction train --extension``)."""
+    ext = Extensions() if extensions is None else extensions
     return [
-        LoopSpec(float(lbf_to_pct(fs)), float(lbf_to_pct(fd)), loop=loop, valve=valve) for fs, fd in training_grid_lbf()
+        LoopSpec(float(lbf_to_pct(fs)), float(lbf_to_pct(fd)), loop=loop, valve=valve, extensions=ext)
+        for fs, fd in training_grid_lbf()
     ]
 
 
@@ -47,10 +53,13 @@ NOISY_CASES: dict[str, tuple[float, float, Disturbance]] = {
 }
 
 
-def case_specs(seed: int = 0) -> dict[str, LoopSpec]:
-    """C1-C10 and N1-N10 of thesis Figures 4.2 and 4.5, fs/fd in percent of 500 lbf."""
-    cases = {name: LoopSpec(fs, fd) for name, (fs, fd) in NOISE_FREE_CASES.items()}
-    cases.update({name: LoopSpec(fs, fd, disturbance=d, seed=seed) for name, (fs, fd, d) in NOISY_CASES.items()})
+def case_specs(seed: int = 0, extensions: Extensions | None = None) -> dict[str, LoopSpec]:
+    """C1-C10 and N1-N10 of thesis Figures 4.2 and 4.5, fs/fd in percent of 500 lbf (on an extended loop if given)."""
+    ext = Extensions() if extensions is None else extensions
+    cases = {name: LoopSpec(fs, fd, extensions=ext) for name, (fs, fd) in NOISE_FREE_CASES.items()}
+    cases.update(
+        {name: LoopSpec(fs, fd, disturbance=d, seed=seed, extensions=ext) for name, (fs, fd, d) in NOISY_CASES.items()}
+    )
     return cases
 
 
@@ -96,8 +105,6 @@ def effect_loops(cause: str, n: int, seed: int, noise: tuple[float, float] = (0.
     The noise is white on PV at ``noise`` times its clean RMS (the controller sees it too).
     A process gain is drawn log-uniformly outside 0.8..1.25, so that there is an effect to find.
     """
-    from sim.extensions import Extensions
-
     rng = np.random.default_rng(seed)
     specs = []
     for _ in range(n):

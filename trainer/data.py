@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from agent.analysis import analyse
+from sim.extensions import Extensions
 from sim.grid import random_disturbance, training_specs
 from sim.loop import simulate
 
@@ -28,9 +29,9 @@ class Dataset:
         return h.hexdigest()
 
 
-def thesis_set() -> Dataset:
+def thesis_set(extensions: Extensions | None = None) -> Dataset:
     """Thesis 4.6: the 1275 noise-free patterns, one realisation, 100 OP samples from the first cycle."""
-    specs = training_specs()
+    specs = training_specs(extensions=extensions)
     r = simulate(specs).kept()
     from agent.features import thesis_window
 
@@ -40,7 +41,11 @@ def thesis_set() -> Dataset:
 
 
 def cycle_set(
-    realisations: int = 3, noisy_variants: int = 2, seed: int = 0, progress: Callable[[int, int], None] | None = None
+    realisations: int = 3,
+    noisy_variants: int = 2,
+    seed: int = 0,
+    progress: Callable[[int, int], None] | None = None,
+    extensions: Extensions | None = None,
 ) -> Dataset:
     """Cycle features of many draws per grid point.
 
@@ -48,7 +53,7 @@ def cycle_set(
     every window is a different draw of the chaotic limit cycle; ``noisy_variants``
     more runs add a random disturbance each (different per grid point and run).
     """
-    base = training_specs()
+    base = training_specs(extensions=extensions)
     rng = np.random.default_rng(seed)
     runs = [base] + [
         [replace(s, disturbance=random_disturbance(rng), seed=int(rng.integers(2**31))) for s in base]

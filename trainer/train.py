@@ -17,6 +17,7 @@ from agent.analysis import analyse
 from agent.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
 from agent.inlpca import InlpcaSettings
 from schemas.model_card import ModelCard, TensorSpec
+from sim.extensions import Extensions
 from sim.grid import case_specs
 from sim.loop import simulate
 from trainer import data, nets
@@ -37,6 +38,8 @@ class TrainSettings:
     ensemble: int = 5
     seed: int = 0
     accuracy_seeds: int = 5
+    extensions: dict[str, float] = field(default_factory=dict)
+    """Every training loop (and test case) on this extended loop: ``stiction train --extension NAME=VALUE``."""
     # full-batch L-BFGS: the thesis trained in MATLAB, whose default trainer is second-order (Levenberg-Marquardt)
     thesis_fit: FitSettings = field(
         default_factory=lambda: FitSettings(epochs=400, patience=40, learning_rate=1.0, optimiser="lbfgs")
@@ -103,10 +106,17 @@ def _mae(pred: np.ndarray, specs) -> float:
     return float(np.mean(np.abs(pred - truth)))
 
 
-def test_case_accuracy(thesis: nets.ThesisMLP, cycle: nets.CycleEnsemble, n_seeds: int) -> dict:
+def test_case_accuracy(
+    thesis: nets.ThesisMLP, cycle: nets.CycleEnsemble, n_seeds: int, extensions: Extensions | None = None
+) -> dict:
     """MAE (pp of 500 lbf) of both models on C1-C10 and on N1-N10 over ``n_seeds`` seeds."""
-    clean = [s for n, s in case_specs().items() if n.startswith("C")]
-    noisy = [s for seed in range(n_seeds) for n, s in case_specs(seed=seed).items() if n.startswith("N")]
+    clean = [s for n, s in case_specs(extensions=extensions).items() if n.startswith("C")]
+    noisy = [
+        s
+        for seed in range(n_seeds)
+        for n, s in case_specs(seed=seed, extensions=extensions).items()
+        if n.startswith("N")
+    ]
     out = {}
     for name, specs, denoise in (("C1-C10", clean, False), ("N1-N10", noisy, True)):
         r = simulate(specs).kept()
@@ -125,15 +135,20 @@ def run(settings: TrainSettings) -> dict:
     settings.models_dir.mkdir(parents=True, exist_ok=True)
     log.info("training with %s", settings)
 
-    thesis_ds = data.thesis_set()
+    extensions = Extensions(**settings.extensions)
+    thesis_ds = data.thesis_set(extensions)
     bar = tqdm(total=(1 + settings.noisy_variants) * settings.realisations, desc="cycle features", unit="batch")
     cycle_ds = data.cycle_set(
-        settings.realisations, settings.noisy_variants, settings.seed, progress=lambda done, total: bar.update(1)
+        settings.realisations,
+        settings.noisy_variants,
+        settings.seed,
+        progress=lambda done, total: bar.update(1),
+        extensions=extensions,
     )
     bar.close()
     thesis_model, thesis_fit = train_thesis(thesis_ds, settings)
     cycle_model, cycle_fits = train_cycle(cycle_ds, settings)
-    accuracy = test_case_accuracy(thesis_model, cycle_model, settings.accuracy_seeds)
+    accuracy = test_case_accuracy(thesis_model, cycle_model, settings.accuracy_seeds, extensions)
     created = datetime.now(UTC).isoformat(timespec="seconds")
     settings_json = json.loads(json.dumps(asdict(settings), default=str))
 
@@ -168,6 +183,7 @@ def run(settings: TrainSettings) -> dict:
         },
         {
             "set": "1275-pattern grid, one realisation, noise-free (thesis 4.2)",
+            "extensions": settings.extensions,
             "n": int(thesis_ds.inputs.shape[0]),
             "sha256": thesis_ds.sha256(),
         },
@@ -195,6 +211,7 @@ def run(settings: TrainSettings) -> dict:
         },
         {
             "set": "1275-pattern grid",
+            "extensions": settings.extensions,
             "realisations": settings.realisations,
             "noisy_variants": settings.noisy_variants,
             "n": int(cycle_ds.inputs.shape[0]),

@@ -7,6 +7,9 @@ import json
 import os
 import platform
 import sys
+from pathlib import Path
+
+from stiction.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -23,6 +26,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--agents", type=int, default=1)
     t.add_argument("--report-every", type=int, default=60, help="samples between a loop's reports")
     t.add_argument("--json", action="store_true")
+    d = sub.add_parser("diagnose", help="per cause of the catalogue: named, parameter error, gain, fs/fd, time")
+    d.add_argument("--loops", type=int, default=20, help="generated loops per cause")
+    d.add_argument("--causes", nargs="+", metavar="CAUSE", help="only these causes (default: all, and none)")
+    d.add_argument("--workers", type=int, default=2, help="processes (CPU seconds are per loop and core)")
+    d.add_argument(
+        "--retrain",
+        type=Path,
+        metavar="DIR",
+        help="also retrain the models on each cause into DIR (reused if there) and quantify the same loops with both",
+    )
+    d.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
     a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
@@ -69,7 +83,63 @@ def run(args: argparse.Namespace) -> int:
         _accuracy(args)
     elif args.bench == "throughput":
         _throughput(args)
+    elif args.bench == "diagnose":
+        _diagnose(args)
     return 0
+
+
+def _diagnose(args) -> None:
+    from bench.diagnose import bench_diagnose, bench_retrained
+    from sim.grid import EFFECT_RANGES
+
+    causes = args.causes or list(EFFECT_RANGES)
+    unknown = [c for c in causes if c not in EFFECT_RANGES]
+    if unknown:
+        raise InputError(f"--causes {' '.join(unknown)}: expected some of {', '.join(EFFECT_RANGES)}")
+    if args.loops < 1 or args.workers < 1:
+        raise InputError("--loops and --workers must be at least 1")
+    quiet = args.json
+
+    def row(c, s):
+        if quiet:
+            return
+        first = ", ".join(f"{k} {v}" for k, v in sorted(s["first_named"].items(), key=lambda kv: -kv[1]))
+        param = "-" if s["param_rel_err_median"] is None else f"{100 * s['param_rel_err_median']:.0f} %"
+        print(
+            f"{c:22s} {100 * s['named_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
+            f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} {s['s_per_loop_median']:6.1f}   "
+            f"first named: {first}",
+            flush=True,
+        )
+
+    if not quiet:
+        print(f"diagnose on {args.loops} generated loops per cause (noise 1-4 % of PV RMS, OP/PV only)")
+        print(f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'s/loop':>6s}")
+        print(f"{'':22s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'(CPU)':>6s}")
+    figures = bench_diagnose(args.loops, causes, args.workers, progress=row)
+    if args.retrain:
+
+        def retrained(c, s):
+            if not quiet:
+                print(
+                    f"  {c:22s} quantify with canonical models {s['quantify_canonical_mae_pp']:6.2f} pp, "
+                    f"retrained on {s['extension']} {s['quantify_retrained_mae_pp']:6.2f} pp (n={s['n']})",
+                    flush=True,
+                )
+
+        if not quiet:
+            print("quantify (learned pipeline, no process declared) on loops with each effect at its middle value:")
+        figures["retrained"] = bench_retrained(args.loops, causes, args.retrain, progress=retrained)
+    figures["host"] = _machine()
+    if args.json:
+        print(json.dumps(figures))
+    else:
+        o = figures["overall"]
+        print(
+            f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} %, canonical loops given a cause "
+            f"{100 * (o['none_given_a_cause'] or 0):.0f} %, fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
+            f"{o['fs_fd_mae_extended_pp']:.2f} pp extended, {o['s_per_loop_median']:.1f} s per loop (median)"
+        )
 
 
 def _accuracy(args) -> None:

@@ -1,16 +1,33 @@
-"""``stiction train``: rebuild every model offline from the simulator (needs the ``train`` extra)."""
+"""``stiction train``: rebuild every model offline from the simulator (needs the ``train`` extra).
+
+The models go to a new folder unless ``--replace-shipped`` says to overwrite the ones the
+agent ships with; ``--extension NAME=VALUE`` trains on the loop extended by a diagnose cause.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import time
+from dataclasses import fields
 from pathlib import Path
 
-from stiction.errors import StictionError
+from stiction.errors import InputError, StictionError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--models", type=Path, help="output directory (default: the agent's committed models)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--models", type=Path, help="output directory (default: a new stiction-models-<time> folder)")
+    where.add_argument(
+        "--replace-shipped", action="store_true", help="overwrite the models the agent ships with (agent/models)"
+    )
+    p.add_argument(
+        "--extension",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="train on the extended loop, e.g. dead_time_s=3 (repeatable; the names of stiction simulate's flags)",
+    )
     p.add_argument("--realisations", type=int, default=3, help="draws of the limit cycle per grid point")
     p.add_argument("--noisy-variants", type=int, default=4, help="extra runs of the grid with random disturbances")
     p.add_argument("--ensemble", type=int, default=5, help="members of the cycle ensemble")
@@ -18,21 +35,51 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
+def parse_extensions(items: list[str]) -> dict[str, float]:
+    """``NAME=VALUE`` pairs as the simulator's extensions, checked against its catalogue."""
+    from sim.extensions import Extensions
+
+    known = {f.name for f in fields(Extensions)}
+    out: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name = name.strip().replace("-", "_")
+        if not sep or name not in known:
+            raise InputError(f"--extension {item!r}: expected NAME=VALUE with NAME one of {', '.join(sorted(known))}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise InputError(f"--extension {item!r}: {value!r} is not a number") from None
+    try:
+        Extensions(**out)
+    except ValueError as e:
+        raise InputError(f"--extension: {e}") from None
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
+    extensions = parse_extensions(args.extension)
+    for name in ("realisations", "ensemble"):
+        if getattr(args, name) < 1:
+            raise StictionError(f"--{name} must be at least 1")
     try:
         from trainer.train import DEFAULT_MODELS_DIR, TrainSettings
         from trainer.train import run as train
     except ImportError as e:
         raise StictionError(f"training needs the train extra ({e.name} missing): pip install -e '.[train]'") from None
-    for name in ("realisations", "ensemble"):
-        if getattr(args, name) < 1:
-            raise StictionError(f"--{name} must be at least 1")
+    if args.replace_shipped:
+        models_dir = DEFAULT_MODELS_DIR
+    else:
+        models_dir = args.models or Path(f"stiction-models-{time.strftime('%Y%m%d-%H%M%S')}")
+        if models_dir.exists() and not models_dir.is_dir():
+            raise InputError(f"--models {models_dir}: exists and is not a directory")
     settings = TrainSettings(
-        models_dir=args.models or DEFAULT_MODELS_DIR,
+        models_dir=models_dir,
         realisations=args.realisations,
         noisy_variants=max(args.noisy_variants, 0),
         ensemble=args.ensemble,
         seed=args.seed,
+        extensions=extensions,
     )
     summary = train(settings)
     if args.json:
@@ -44,4 +91,5 @@ def run(args: argparse.Namespace) -> int:
                 f"  {test_set}: thesis MLP {acc['thesis_mlp_mae_pp']:.2f} pp, "
                 f"cycle ensemble {acc['cycle_ensemble_mae_pp']:.2f} pp (n={acc['n']})"
             )
+        print(f"  use them with --models {summary['models_dir']}")
     return 0
