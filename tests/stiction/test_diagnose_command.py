@@ -1,0 +1,63 @@
+"""``stiction diagnose`` as a user runs it: JSON Lines, a summary, plots, bad files named and the rest answered."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from stiction.cli import main
+
+
+@pytest.fixture(scope="module")
+def loops(tmp_path_factory):
+    d = tmp_path_factory.mktemp("diag")
+    main(
+        [
+            "simulate", "--fs-pct", "40", "--fd-pct", "15", "--dead-time-s", "3", "--disturbance", "gaussian",
+            "--coefficient", "0.02", "--out", str(d / "dt.csv"),
+        ]
+    )  # fmt: skip
+    rows = np.genfromtxt(d / "dt.csv", delimiter=",", names=True)
+    np.savetxt(d / "dt_no_mv.csv", np.column_stack([rows["t_s"], rows["op"], rows["pv"]]), delimiter=",",
+               header="t_s,op,pv", comments="")  # fmt: skip
+    (d / "bad.csv").write_text("t,op,pv\n0,1,2\n1,x,2\n")
+    (d / "short.csv").write_text("t,op,pv\n" + "".join(f"{i},{i % 7},{i % 5}\n" for i in range(30)))
+    return d
+
+
+def test_json_names_the_cause_and_checks_the_valve_where_mv_is_there(loops, capsys):
+    assert main(["diagnose", "--json", str(loops / "dt_no_mv.csv"), str(loops / "dt.csv")]) == 0
+    no_mv, with_mv = (json.loads(line) for line in capsys.readouterr().out.strip().splitlines())
+    for r in (no_mv, with_mv):
+        assert r["cause"] == "dead_time" and r["parameters"]["dead_time_s"] == pytest.approx(3, rel=0.25)
+        assert r["gain_pct"] > 0 and r["extended_error"] < r["base_error"]
+        assert r["fs_pct"] == pytest.approx(40, abs=3) and r["s_se_pct"] > 0
+        assert set(r["candidates"]) >= {"dead_time", "deadband", "quantization", "sensor_lag"}
+        assert not r["candidates"]["deadband"]["identifiable"]
+    assert not no_mv["uses_mv"] and no_mv["valve_check"] is None
+    assert with_mv["uses_mv"] and with_mv["valve_check"]["model"] == "sticky"
+    assert with_mv["valve_check"]["calibration_gain"] == pytest.approx(1, abs=0.02)
+
+
+def test_summary_and_plot(loops, tmp_path, capsys):
+    assert main(["diagnose", str(loops / "dt_no_mv.csv"), "--plot", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "causes: dead_time" in out and "fit error: canonical" in out
+    png = tmp_path / "dt_no_mv.png"
+    assert png.stat().st_size > 20_000
+
+
+def test_bad_files_are_named_in_one_line_and_the_others_answered(loops):
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.cli", "diagnose", "--json", str(loops / "bad.csv"), str(loops / "short.csv"),
+         str(loops / "dt_no_mv.csv")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 2
+    errors = done.stderr.strip().splitlines()
+    assert len(errors) == 2 and "Traceback" not in done.stderr
+    assert "bad.csv: row 3, column 'op': 'x' is not a number" in errors[0]
+    assert "short.csv: 30 samples, need at least 100" in errors[1]
+    assert json.loads(done.stdout)["loop_id"] == "dt_no_mv"
