@@ -398,8 +398,6 @@ def fit_valve(
         best = _finish(record, hyp, read, tf, q, nominal_gain)
     band0, band0_se, _ = _band(best, drive)
     best = replace(best, band_pct=band0, band_se=band0_se)
-    if not np.isfinite(best.level0_pct):  # no piece before the first slip to read it from: it hardly matters
-        best = replace(best, level0_pct=float(drive.mean[0]))
     usable = np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct)
     if search == "read" or not usable:
         return best
@@ -508,6 +506,10 @@ def _finish(record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: 
     x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s, hyp.snapshot)))
     fit = _linear_fit(record, hyp, x, q, nominal_gain)
     c = _valve_from_fit(fit)
+    lo, hi = float(record.op_pct.min()), float(record.op_pct.max())
+    if not lo - (hi - lo) - 1.0 <= c.level0 <= hi + (hi - lo) + 1.0:
+        # the stem before the first slip, read from a piece too short to tell: where OP started
+        c = replace(c, level0=float(record.op_pct[0]))
     return ValveFit(
         hyp, slips, fit, c.gain, c.gain_se, c.stop, c.stop_se, c.level0, tf, jump_pct=c.jump, jump_se=c.jump_se
     )

@@ -102,7 +102,9 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
         resid = record.target - model.fit.fit.prediction
         spec = np.abs(np.fft.rfft(resid - resid.mean())) ** 2 / resid.size
         freq = np.fft.rfftfreq(resid.size, record.ts_s)
-        ax.loglog(1 / freq[1:], spec[1:], lw=0.8, color=color, label=f"{label} residual")
+        shown = spec[1:] > 0  # a flat PV leaves nothing to show on a log scale
+        if shown.any():
+            ax.loglog(1 / freq[1:][shown], spec[1:][shown], lw=0.8, color=color, label=f"{label} residual")
     ax.set_xlabel("period, s")
     ax.set_ylabel("power of the one-sample error")
     ax.legend(loc="best", fontsize=8)
