@@ -143,14 +143,22 @@ def path_regressors(slips: Slips, n: int, ts_s: float, snapshot: bool = False) -
     for them; the band S itself shows only in when the slips happen (``walk``).
     """
     m = slips.at.size
+    d = slips.directions.astype(float)
+    held = slips.breaks <= 0
+    # each slip's piece: from the last slip at a held drive (or the level before the first slip) on,
+    # plus the jumps of the slips at a moving drive since then
+    last_held = np.maximum.accumulate(np.where(held, np.arange(m), -1)) if m else np.zeros(0, int)
+    crossing = np.cumsum(np.where(held, 0.0, d))
+    at_last = np.where(last_held >= 0, crossing[np.maximum(last_held, 0)], 0.0)
     coef = np.zeros((m + 1, 4))
     coef[0, 3] = 1.0
-    for j in range(m):
-        d = float(slips.directions[j])
-        if slips.breaks[j] > 0:
-            coef[j + 1] = coef[j] + (0.0, 0.0, d, 0.0)
-        else:
-            coef[j + 1] = (slips.landing_drive[j], -d, 0.0, 0.0)
+    if m:
+        base = np.where(last_held >= 0, last_held, 0)
+        from_held = last_held >= 0
+        coef[1:, 0] = np.where(from_held, slips.landing_drive[base], 0.0)
+        coef[1:, 1] = np.where(from_held, -d[base], 0.0)
+        coef[1:, 2] = crossing - at_last
+        coef[1:, 3] = np.where(from_held, 0.0, 1.0)
     piece = np.searchsorted(slips.at, np.arange(n), side="right")
     r = coef[piece].T.copy()
     if snapshot:

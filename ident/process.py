@@ -13,6 +13,7 @@ self-regulating with the same high-frequency gain (``sim.process.continuous_plan
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.signal import lfilter
@@ -78,10 +79,14 @@ def _minimal(A: np.ndarray, B: np.ndarray, C: np.ndarray):
     return A, B, C
 
 
+@lru_cache(maxsize=4096)
 def transfer_function(
     dynamics: Dynamics, ts_s: float, gain_ratio: float = 1.0, process: ProcessModel = NOMINAL
 ) -> TransferFunction:
-    """Exact discretisation of ``sim.process`` as a transfer function (SISO: ``C adj(zI-Phi) G``)."""
+    """Exact discretisation of ``sim.process`` as a transfer function (SISO: ``C adj(zI-Phi) G``).
+
+    Cached: the fits ask for the same few dynamics thousands of times, and each costs a matrix exponential.
+    """
     A, B, C = continuous_plant(process, gain_ratio, dynamics.time_constant_s, dynamics.sensor_tau_s)
     A, B, C = _minimal(A, B, C)
     plant = discretise(A, B, C, ts_s, dynamics.dead_time_s)

@@ -13,6 +13,7 @@ the first interval of every new piece.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -55,6 +56,7 @@ def pv_noise_sd(pv: np.ndarray) -> float:
     return max(sd, q / np.sqrt(12.0)) if q else sd
 
 
+@lru_cache(maxsize=4096)
 def inverse_filter(dynamics: Dynamics, ts_s: float) -> tuple[np.ndarray, int]:
     """``(c, shift)``: the input of interval k is about ``sum_i c_i PV[k + shift - i]``."""
     process = transfer_function(Dynamics(dynamics.time_constant_s), ts_s)  # y = b/(1 - p q^-1) u, b at lag 1

@@ -24,7 +24,7 @@ import numpy as np
 from sim.actuator import actuate
 from sim.disturbance import Disturbance, rms, unit_shape
 from sim.extensions import Extensions
-from sim.process import LOOPS, continuous_plant, discretise
+from sim.process import LOOPS, ProcessModel, continuous_plant, discretise
 from sim.valve import Friction, pct_to_lbf
 
 TS_S = 1.0
@@ -47,16 +47,30 @@ class LoopSpec:
     extensions: Extensions = field(default_factory=Extensions)
     seed: int = 0
     sp_pct: float = 1.0
+    process: ProcessModel | None = None
+    """A loop of its own (process and PI tuning) in place of the named one: plant loops are not the thesis's."""
 
     def __post_init__(self):
-        if self.loop not in LOOPS:
+        if self.process is None and self.loop not in LOOPS:
             raise ValueError(f"unknown loop {self.loop!r}: expected one of {sorted(LOOPS)}")
+        if self.process is not None:
+            p = self.process
+            if not (p.gain != 0 and np.isfinite(p.gain) and p.controller_gain != 0 and p.integral_time_s > 0):
+                raise ValueError(f"process {p}: need a finite nonzero gain, a nonzero Kc and Ti > 0")
+            if p.time_constant_s is not None and not p.time_constant_s > 0:
+                raise ValueError(f"process time constant must be > 0, got {p.time_constant_s}")
         if self.valve not in ("physical", "he"):
             raise ValueError(f"unknown valve model {self.valve!r}: expected 'physical' or 'he'")
         if not (np.isfinite(self.fs_pct) and np.isfinite(self.fd_pct)):
             raise ValueError("fs_pct and fd_pct must be finite")
         if not 0 <= self.fd_pct <= self.fs_pct:
             raise ValueError(f"need 0 <= fd_pct <= fs_pct, got fs_pct={self.fs_pct}, fd_pct={self.fd_pct}")
+
+
+    @property
+    def model(self) -> ProcessModel:
+        """The loop's process and controller."""
+        return self.process if self.process is not None else LOOPS[self.loop]
 
 
 @dataclass(frozen=True)
@@ -74,6 +88,21 @@ class SimResult:
         """The samples after the warm-up (the thesis's pattern: samples 1000..1999)."""
         i = int(np.searchsorted(self.t_s, warmup_s))
         return SimResult(self.specs, self.t_s[i:], self.op[:, i:], self.pv[:, i:], self.sp[:, i:], self.mv[:, i:])
+
+    def recorded(self, every: int, how: Literal["snapshot", "mean"] = "snapshot") -> SimResult:
+        """As a historian keeps it: one sample every ``every`` controller periods, the last value or the mean."""
+        if every < 1:
+            raise ValueError(f"record every {every} samples: expected 1 or more")
+        if every == 1:
+            return self
+        n = (self.t_s.size // every) * every
+
+        def keep(x):
+            blocks = x[:, :n].reshape(x.shape[0], -1, every)
+            return blocks.mean(axis=2) if how == "mean" else blocks[:, :, -1]
+
+        t = self.t_s[:n].reshape(-1, every)[:, -1]
+        return SimResult(self.specs, t, keep(self.op), keep(self.pv), keep(self.sp), keep(self.mv))
 
 
 @dataclass(frozen=True)
@@ -114,31 +143,23 @@ def _friction(specs: Sequence[LoopSpec]) -> Friction:
 
 def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
     plants = {}
+    def key(s: LoopSpec):
+        e = s.extensions
+        return (s.model, e.gain_ratio, e.time_constant_s, e.sensor_tau_s, e.dead_time_s)
+
     for s in specs:
         e = s.extensions
-        key = (s.loop, e.gain_ratio, e.time_constant_s, e.sensor_tau_s, e.dead_time_s)
-        if key not in plants:
-            A, B, C = continuous_plant(LOOPS[s.loop], e.gain_ratio, e.time_constant_s, e.sensor_tau_s)
-            plants[key] = discretise(A, B, C, ts_s, e.dead_time_s)
-    per_loop = [
-        plants[
-            (
-                s.loop,
-                s.extensions.gain_ratio,
-                s.extensions.time_constant_s,
-                s.extensions.sensor_tau_s,
-                s.extensions.dead_time_s,
-            )
-        ]
-        for s in specs
-    ]
+        if key(s) not in plants:
+            A, B, C = continuous_plant(s.model, e.gain_ratio, e.time_constant_s, e.sensor_tau_s)
+            plants[key(s)] = discretise(A, B, C, ts_s, e.dead_time_s)
+    per_loop = [plants[key(s)] for s in specs]
 
     def stack(name):
         return np.stack([getattr(p, name) for p in per_loop])
 
     return Batch(
-        kc=np.array([LOOPS[s.loop].controller_gain for s in specs]),
-        ti_s=np.array([LOOPS[s.loop].integral_time_s for s in specs]),
+        kc=np.array([s.model.controller_gain for s in specs]),
+        ti_s=np.array([s.model.integral_time_s for s in specs]),
         sp=np.array([s.sp_pct for s in specs]),
         friction=_friction(specs),
         phi=stack("phi"),

@@ -68,3 +68,28 @@ def test_exact_parameters_reproduce_a_noise_free_loop():
     fr = F.friction(vf, rec)
     assert fr.fs_pct == pytest.approx(33.2, abs=0.3)
     assert fr.fd_pct == pytest.approx(19.4, abs=0.05)
+
+
+def _regressors_by_slip(slips: F.Slips, n: int, ts_s: float) -> np.ndarray:
+    """The stem's regressors slip by slip: a held slip lands ``stop`` short of the drive, a slip at a
+    moving drive jumps by J from the last landing."""
+    coef = np.zeros((slips.at.size + 1, 4))
+    coef[0, 3] = 1.0
+    for j, d in enumerate(slips.directions.astype(float)):
+        held = slips.breaks[j] <= 0
+        coef[j + 1] = (slips.landing_drive[j], -d, 0.0, 0.0) if held else coef[j] + (0.0, 0.0, d, 0.0)
+    r = coef[np.searchsorted(slips.at, np.arange(n), side="right")].T.copy()
+    k = slips.at[slips.at > 0]
+    share = slips.breaks[slips.at > 0] + F.SLIP_S / ts_s
+    r[:, k] -= share * (r[:, k] - r[:, k - 1])
+    return r
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_vectorised_regressors_equal_the_slip_by_slip_recursion(seed):
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(1, 40))
+    at = np.sort(rng.choice(np.arange(1, 600), m, replace=False))
+    breaks = np.where(rng.random(m) < 0.5, 0.0, rng.random(m))
+    slips = F.Slips(at, rng.choice([-1, 1], m), breaks, rng.normal(0, 5, m), np.ones(m, bool))
+    np.testing.assert_allclose(F.path_regressors(slips, 600, 1.0), _regressors_by_slip(slips, 600, 1.0))
