@@ -562,6 +562,59 @@ class Friction:
     slips_read: int
 
 
+def effective_samples(resid: np.ndarray) -> float:
+    """Independent samples in an autocorrelated residual: n over its integrated autocorrelation time."""
+    r = resid - resid.mean()
+    c0 = float(r @ r)
+    if c0 <= 0:
+        return float(r.size)
+    tau = 1.0
+    for lag in range(1, min(200, r.size // 4)):
+        rho = float(r[lag:] @ r[:-lag]) / c0
+        if rho <= 0:
+            break
+        tau += 2 * rho
+    return r.size / tau
+
+
+PROFILE_POINTS = 41
+
+
+def jump_profile_se(vf: ValveFit, record: Record, band: float) -> float:
+    """J's uncertainty along the ridge a free process gain opens: the profile of the criterion over stop.
+
+    With the gain free, a larger gain and a smaller jump explain the same PV (one slip per half
+    cycle moves PV by K J): the least squares' covariance, conditional on the slips, misses how
+    flat the criterion is along that ridge.  Here stop (so J = S - stop) is fixed on a grid from
+    0 to S, the gain refitted, and J's interval read where the criterion (over the residual's
+    effective samples) stays within 1 of its least.
+    """
+    hyp = vf.hypothesis
+    if not hyp.gain_free or not np.isfinite(band) or band <= 0 or vf.slips.at.size == 0:
+        return 0.0
+    tf = vf.tf
+    q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
+    x = project_out(record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot))), q)
+    y = project_out(record.target[None, :], q)[0]
+    stops = np.linspace(0.0, band, PROFILE_POINTS)
+    rss = np.empty(stops.size)
+    for i, stop in enumerate(stops):
+        cols = np.stack([x[0] + stop * x[1], x[3]] + ([x[2]] if hyp.actuator_tau_s > 0 else []))
+        coef, *_ = np.linalg.lstsq(cols.T, y, rcond=None)
+        resid = y - coef @ cols
+        rss[i] = resid @ resid
+    best = int(np.argmin(rss))
+    n_eff = effective_samples(
+        y
+        - (
+            np.linalg.lstsq(np.stack([x[0] + stops[best] * x[1], x[3]]).T, y, rcond=None)[0]
+            @ np.stack([x[0] + stops[best] * x[1], x[3]])
+        )
+    )
+    inside = stops[n_eff * np.log(rss / rss[best]) <= 1.0]
+    return float(np.ptp(inside) / 2) if inside.size > 1 else 0.0
+
+
 def friction(vf: ValveFit, record: Record) -> Friction:
     """S (searched, or from the brackets), J and stop (one from the least squares, the other the
     difference), with their standard errors."""
@@ -572,7 +625,9 @@ def friction(vf: ValveFit, record: Record) -> Friction:
         j, j_se = vf.jump_pct, vf.jump_se
         stop, stop_se = s - j, float(np.hypot(s_se, j_se))
     else:
-        stop, stop_se = vf.stop_pct, vf.stop_se
+        stop = vf.stop_pct
+        # a free gain trades off against the jump: the profile's width, where wider than the covariance's
+        stop_se = max(vf.stop_se, jump_profile_se(vf, record, s)) if np.isfinite(stop) else vf.stop_se
         j, j_se = s - stop, float(np.hypot(s_se, stop_se))
     if not (np.isfinite(s) and np.isfinite(stop)):
         nan = float("nan")
