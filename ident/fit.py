@@ -445,7 +445,7 @@ def fit_valve(
         return best
     band, slips = winner[0], winner[1]
     slips = _prune_forced(record, hyp, slips, tf, q, nominal_gain, fixed)
-    fitted = _finish(record, hyp, slips, tf, q, nominal_gain)
+    fitted = _finish(record, hyp, slips, tf, q, nominal_gain, band)
     tried_band, tried_ic = np.array(tried_band[1:]), np.array(tried_ic[1:])
     inside = tried_band[tried_ic - tried_ic.min() <= 1.0]
     step = float(abs(S_FINE[1] - S_FINE[0]) * band)
@@ -509,11 +509,29 @@ def refit(record: Record, hyp: Hypothesis, slips: Slips) -> ValveFit | None:
     return replace(vf, band_pct=band, band_se=band_se)
 
 
-def _finish(record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float) -> ValveFit:
-    """The full linear fit (with covariance) for one set of slips."""
+def _finish(
+    record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float, band: float | None = None
+) -> ValveFit:
+    """The full linear fit (with covariance) for one set of slips.
+
+    With the band known, a stop the least squares put outside 0..S (a direction of the design it
+    cannot read: all slips one way, say, where a stem's level shift is the nuisance's constant) is
+    held at the nearest possible value and the rest refitted: no valve lands beyond its drive.
+    """
     x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s, hyp.snapshot)))
     fit = _linear_fit(record, hyp, x, q, nominal_gain)
     c = _valve_from_fit(fit)
+    if band is not None and np.isfinite(band) and not (0.0 <= c.stop <= band):
+        stop = float(np.clip(c.stop, 0.0, band)) if np.isfinite(c.stop) else 0.5 * band
+        held = np.stack([x[0] + stop * x[1], np.zeros_like(x[1]), x[2], x[3]])
+        fit = _linear_fit(record, hyp, held, q, nominal_gain)
+        coef = fit.coef.copy()
+        coef[1] = coef[0] * stop
+        cov = fit.cov.copy()
+        cov[1, :], cov[:, 1] = stop * cov[0, :], stop * cov[:, 0]
+        cov[1, 1] = stop * stop * fit.cov[0, 0]
+        fit = replace(fit, coef=coef, cov=cov)
+        c = replace(_valve_from_fit(fit), stop=stop)
     lo, hi = float(record.op_pct.min()), float(record.op_pct.max())
     if not lo - (hi - lo) - 1.0 <= c.level0 <= hi + (hi - lo) + 1.0:
         # the stem before the first slip, read from a piece too short to tell: where OP started

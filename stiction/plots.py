@@ -51,8 +51,12 @@ def plot_loop(out: Path, window, report, details) -> Path:
 
 
 def _diagnosis_title(report) -> str:
+    from sim.extensions import CATALOGUE
+
     causes = ", ".join(
-        f"{c} " + ", ".join(f"{v:.3g}" for k, v in report.parameters.items() if k.split("_")[0] in c or c in k)
+        f"{c} ("
+        + ", ".join(f"{k} {report.parameters[k]:.3g}" for k in CATALOGUE.get(c, ()) if k in report.parameters)
+        + ")"
         for c in report.causes
     )
     sj = (
