@@ -37,6 +37,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="also retrain the models on each cause into DIR (reused if there) and quantify the same loops with both",
     )
     d.add_argument("--json", action="store_true")
+    m = sub.add_parser("measured", help="diagnose every export of the measured folders beside their labels")
+    m.add_argument("folders", nargs="+", type=Path, metavar="DIR", help="folders of exports (or single files)")
+    m.add_argument("--workers", type=int, default=2)
+    m.add_argument("--markdown", action="store_true", help="print the per-loop table as markdown")
+    m.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
     a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
@@ -85,7 +90,29 @@ def run(args: argparse.Namespace) -> int:
         _throughput(args)
     elif args.bench == "diagnose":
         _diagnose(args)
+    elif args.bench == "measured":
+        _measured(args)
     return 0
+
+
+def _measured(args) -> None:
+    from bench.measured import bench_measured, markdown
+
+    missing = [str(f) for f in args.folders if not f.exists()]
+    if missing:
+        raise InputError(f"{', '.join(missing)}: no such folder or file")
+    figures = bench_measured(args.folders, args.workers) | {"host": _machine()}
+    if args.json:
+        print(json.dumps(figures))
+        return
+    if args.markdown:
+        print(markdown(figures))
+    s = figures["summary"]
+    c = s["stiction_earns_its_place"]
+    print(f"{s['loops']} loops, {s['labelled']} labelled; stiction earns its place (BIC): "
+          f"{c['true_positive']} of {c['true_positive'] + c['false_negative']} labelled sticky, "
+          f"{c['false_positive']} of {c['false_positive'] + c['true_negative']} labelled not")  # fmt: skip
+    print("causes named: " + ", ".join(f"{k} {v}" for k, v in sorted(s["causes"].items(), key=lambda kv: -kv[1])))
 
 
 def _diagnose(args) -> None:

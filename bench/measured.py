@@ -1,0 +1,100 @@
+"""``stiction bench measured``: diagnose every measured export of a folder, beside its labels where known.
+
+The StictionGPT plant data carry the data authors' labels in ``loops.json`` (stiction or not,
+loop type, tag); the DAMADICS loop carries none.  The table is what ``docs/measured-data.md``
+is written from.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+
+def _diagnose_file(path: str) -> dict:
+    from agent.historian import read_export
+    from ident.diagnose import diagnose
+    from ident.record import Record, choose_horizon
+    from ident.report import diagnosis_report, valve_check_out
+    from ident.valve_check import check_valve
+    from stiction.commands.diagnose import MAX_SAMPLES
+
+    export = read_export(path)
+    op, pv = export.op[-MAX_SAMPLES:], export.pv[-MAX_SAMPLES:]
+    mv = export.mv[-MAX_SAMPLES:] if export.mv is not None else None
+    record = Record(op, pv, export.ts_s, horizon=choose_horizon(pv))
+    check = valve_check_out(check_valve(op, mv, export.ts_s)) if mv is not None else None
+    report = diagnosis_report(Path(path).stem, record, diagnose(record), list(export.warnings), check)
+    return json.loads(report.model_dump_json())
+
+
+def labels(folder: Path) -> dict[str, dict]:
+    """Labels by file stem, from a ``loops.json`` beside or above the CSVs (the StictionGPT layout)."""
+    for candidate in (folder / "loops.json", folder.parent / "loops.json"):
+        if candidate.is_file():
+            return {Path(r["csv"]).stem: r for r in json.loads(candidate.read_text())}
+    return {}
+
+
+def bench_measured(folders: list[Path], workers: int = 2) -> dict:
+    files = sorted(str(p) for f in folders for p in (sorted(f.glob("*.csv")) if f.is_dir() else [f]))
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[var] = "1"
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        reports = list(pool.map(_diagnose_file, files))
+    known = {}
+    for f in folders:
+        known.update(labels(f if f.is_dir() else f.parent))
+    rows = []
+    for path, r in zip(files, reports, strict=True):
+        meta = known.get(Path(path).stem, {})
+        rows.append({"file": path, "label": meta.get("label"), "tag": meta.get("tag"), "type": meta.get("loop_type"),
+                     "report": r})  # fmt: skip
+    labelled = [row for row in rows if row["label"]]
+    called = [(row["report"]["stiction_delta_criterion"] > 0, row["label"] == "stiction") for row in labelled]
+    summary = {
+        "loops": len(rows),
+        "labelled": len(labelled),
+        "stiction_earns_its_place": {
+            "true_positive": sum(c and t for c, t in called),
+            "false_positive": sum(c and not t for c, t in called),
+            "true_negative": sum(not c and not t for c, t in called),
+            "false_negative": sum(not c and t for c, t in called),
+        },
+        "causes": {},
+    }
+    for row in rows:
+        for c in row["report"]["causes"]:
+            summary["causes"][c] = summary["causes"].get(c, 0) + 1
+    return {"rows": rows, "summary": summary}
+
+
+def markdown(figures: dict) -> str:
+    """One table row per loop: label, what diagnose found, the gain, S and J."""
+
+    def f(x, nd=2):
+        return "–" if x is None else f"{x:.{nd}f}"
+
+    from sim.extensions import CATALOGUE
+
+    head = "| loop | label | process identified | causes (parameters) | fit error canonical → extended "
+    lines = [head + "| S ± se | J ± se | stiction ΔBIC |", "|---|---|---|---|---|---|---|---|"]
+    for row in figures["rows"]:
+        r = row["report"]
+
+        def params(cause, r=r):
+            return ", ".join(f"{k} {r['parameters'][k]:.3g}" for k in CATALOGUE.get(cause, ()) if k in r["parameters"])
+
+        causes = "; ".join(f"{c} ({params(c)})" for c in r["causes"]) or "none"
+        s = f"{f(r['s_pct'])} ± {f(r['s_se_pct'])}" if r["s_pct"] is not None else "withheld"
+        j = f"{f(r['j_pct'])} ± {f(r['j_se_pct'])}" if r["j_pct"] is not None else "withheld"
+        name = r["loop_id"].replace("stic_", "").split("_Stick1")[0]
+        lines.append(
+            f"| {name} | {row['label'] or '–'} | {r['process']['description']} | {causes} | "
+            f"{r['base_error']:.3g} → {r['extended_error']:.3g} % ({r['gain_pct']:.0f} %) | {s} | {j} | "
+            f"{r['stiction_delta_criterion']:.0f} |"
+        )
+    return "\n".join(lines)
