@@ -111,7 +111,10 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
             ax.loglog(1 / freq[1:][shown], spec[1:][shown], lw=0.8, color=color, label=f"{label} residual")
     ax.set_xlabel("period, s")
     ax.set_ylabel("power of the one-sample error")
-    ax.legend(loc="best", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize=8)
+    else:
+        ax.text(0.5, 0.5, "no error left to show: PV does not move", ha="center", transform=ax.transAxes)
     ax.set_title("where the models fail, by period", fontsize=9)
     fig.suptitle(_diagnosis_title(report), fontsize=9)
     fig.tight_layout()
