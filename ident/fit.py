@@ -405,6 +405,12 @@ def fit_valve(
         read = Slips.from_path(path, drive)
         best = _finish(record, hyp, read, tf, q, nominal_gain)
     band0, band0_se, _ = _band(best, drive)
+    # no valve lands beyond its drive, nor further from it than OP ever moved
+    op_range = float(np.ptp(record.op_pct))
+    band0 = min(band0, 0.75 * op_range) if np.isfinite(band0) else band0
+    limit = band0 if np.isfinite(band0) and band0 > 0 else op_range
+    if not (0.0 <= best.stop_pct <= limit):
+        best = _finish(record, hyp, read, tf, q, nominal_gain, limit)
     best = replace(best, band_pct=band0, band_se=band0_se)
     usable = np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct)
     if search == "read" or not usable:
@@ -434,9 +440,11 @@ def fit_valve(
             ok = np.isfinite(new_stops) & np.isfinite(new_levels)
             stops, levels = np.where(ok, new_stops, stops), np.where(ok, new_levels, levels)
         ic = criterion(rss, fixed + np.array([c.read.sum() for c in cands]), n)
-        # no valve lands beyond its drive or jumps backwards: 0 <= stop <= S (a little noise aside)
+        # no valve lands beyond its drive or jumps backwards: 0 <= stop <= S (a little noise aside),
+        # and none that slipped had a band wider than OP ever moved
         tol = 0.05 * bands
-        ic = np.where((stops >= -tol) & (stops <= bands + tol), ic, np.inf)
+        possible = (stops >= -tol) & (stops <= bands + tol) & (bands <= op_range)
+        ic = np.where(possible, ic, np.inf)
         tried_band.extend(bands), tried_ic.extend(ic)
         i = int(np.argmin(ic))
         if np.isfinite(ic[i]) and ic[i] < min(tried_ic[: -bands.size]):
@@ -548,10 +556,15 @@ def _robust_se(x: np.ndarray) -> float:
 
 
 def _band(vf: ValveFit, drive: Drive, stop: float | None = None) -> tuple[float, float, int]:
-    """The band S from the read slips' brackets, given where the stem landed: (median, its SE, slips read)."""
+    """The band S from the read slips' brackets, given where the stem landed: (median, its SE, slips read).
+
+    With fewer than three brackets the spread of their midpoints says nothing: the SE is then half
+    the brackets' own width plus a quarter of the band, wide enough to cover what one or two slips
+    leave open.
+    """
     stop = vf.stop_pct if stop is None else stop
     s = vf.slips
-    if s.at.size < 3:
+    if s.at.size < 2 or not np.isfinite(stop):
         return np.nan, np.nan, 0
     landed = s.landing_drive - s.directions * stop
     k = s.at[1:]
@@ -560,8 +573,11 @@ def _band(vf: ValveFit, drive: Drive, stop: float | None = None) -> tuple[float,
     before = np.abs(drive.end[k[use] - 1] - prev_level)
     after = np.abs(drive.end[k[use]] - prev_level)
     mid = 0.5 * (before + after)
-    if mid.size < 2:
+    if mid.size == 0:
         return np.nan, np.nan, 0
+    if mid.size < 3:
+        band = float(np.median(mid))
+        return band, float(np.max(after - before) / 2 + 0.25 * band), int(mid.size)
     return float(np.median(mid)), _robust_se(mid), int(mid.size)
 
 
