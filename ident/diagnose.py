@@ -24,7 +24,7 @@ import numpy as np
 from ident import fit, lattice
 from ident.fit import Friction, Hypothesis, ValveFit, criterion, fit_valve, friction
 from ident.process import Dynamics
-from ident.record import Record
+from ident.record import Record, process_sign
 from ident.stem import StemReader
 
 MAX_CAUSES = 4
@@ -190,6 +190,14 @@ class Fitter:
     def __init__(self, record: Record):
         self.record = record
         self.reader = StemReader(record.pv_pct, record.ts_s)
+        self.sign = process_sign(record.op_pct, record.pv_pct)
+
+    def _criterion(self, vf: ValveFit) -> float:
+        """Schwarz's criterion; a process gain of the sign the controller rules out fits the controller
+        backwards (PV read from OP through the PI law), not the plant: no such model."""
+        if vf.hypothesis.gain_free and not vf.gain_ratio * self.sign > 0:
+            return float("inf")
+        return float(criterion(vf.rss, vf.n_params, self.record.n_fit))
 
     def paths(self, keys: list[tuple[Dynamics, float | None]]):
         """Stem paths under (dynamics, external oscillation period) hypotheses."""
@@ -204,7 +212,7 @@ class Fitter:
         keys = [(h.dynamics, h.osc_period_s if own_paths else None) for h in hyps]
         for h, p in zip(hyps, self.paths(keys), strict=True):
             vf = fit_valve(self.record, h, p, search="quick")
-            out.append((vf, criterion(vf.rss, vf.n_params, self.record.n_fit)))
+            out.append((vf, self._criterion(vf)))
         return out
 
     def with_slips(self, hyp: Hypothesis, slips) -> ValveFit | None:
@@ -218,7 +226,7 @@ class Fitter:
         valve = None if start is None else (start.band_pct, start.stop_pct, start.level0_pct)
         path = self.paths([(hyp.dynamics, hyp.osc_period_s)])[0]
         vf = fit_valve(self.record, hyp, path, search="full", start=valve)
-        return vf, criterion(vf.rss, vf.n_params, self.record.n_fit)
+        return vf, self._criterion(vf)
 
 
 FULL_FITS_PER_CAUSE = 3

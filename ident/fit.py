@@ -30,7 +30,7 @@ import numpy as np
 from ident import kernels
 from ident.objective import nuisance_basis, project_out
 from ident.process import Dynamics, TransferFunction, transfer_function
-from ident.record import Record
+from ident.record import Record, process_sign
 from ident.stem import StemPath
 from sim.valve import VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
 
@@ -348,7 +348,11 @@ S_WIDE = np.geomspace(1 / 3, 3, 17) - 1
 S_GRID = np.linspace(-0.2, 0.2, 21)
 S_FINE = np.linspace(-0.025, 0.025, 11)
 WALK_ITERATIONS = 2
-SEARCH_GRIDS = {"read": (), "quick": (np.array([-0.04, 0.0, 0.04]),), "full": (S_WIDE, S_GRID, S_FINE)}
+SEARCH_GRIDS = {
+    "read": (),
+    "quick": (np.array([-0.04, 0.0, 0.04]),),
+    "full": (np.union1d(S_WIDE, S_GRID), S_GRID, S_FINE),
+}
 
 
 def criterion(rss: np.ndarray | float, n_params: np.ndarray | int, n: int) -> np.ndarray | float:
@@ -399,11 +403,20 @@ def fit_valve(
         empty = Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
         return ValveFit(hyp, empty, fit, g, g_se, 0.0, 0.0, np.nan, tf, 0.0, 0.0)
     read = Slips.from_path(path, drive)
-    best = _finish(record, hyp, read, tf, q, nominal_gain)
-    if best.gain_ratio < 0:  # a reverse-acting process: PV falls as the stem opens
+    sign = process_sign(record.op_pct, record.pv_pct) if hyp.gain_free else 1
+    if sign < 0:  # a reverse-acting process: PV falls as the stem opens; the slips read from PV flip
         path = StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
         read = Slips.from_path(path, drive)
-        best = _finish(record, hyp, read, tf, q, nominal_gain)
+    best = _finish(record, hyp, read, tf, q, nominal_gain)
+    if search != "read" and read.at.size and hyp.osc_period_s:
+        # an external load the segmentation cut into steps leaves slips where the stem never moved:
+        # anchored there, the valve model would land far from the stem
+        pruned = _prune_forced(
+            record, hyp, read, tf, q, nominal_gain, best.fit.n_params + _own_params(hyp), harmful_only=True
+        )
+        if pruned.at.size < read.at.size:
+            read = pruned
+            best = _finish(record, hyp, read, tf, q, nominal_gain)
     band0, band0_se, _ = _band(best, drive)
     # no valve lands beyond its drive, nor further from it than OP ever moved
     op_range = float(np.ptp(record.op_pct))
@@ -464,9 +477,14 @@ def fit_valve(
 PRUNE_ROUNDS = 2
 
 
-def _prune_forced(record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float, fixed: int) -> Slips:
+def _prune_forced(
+    record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float, fixed: int, harmful_only: bool = False
+) -> Slips:
     """Drop the forced slips that do not earn their parameter: a level shift the data read that the
-    valve model did not make is not always the valve's (a flow wandering between two stored values)."""
+    valve model did not make is not always the valve's (a flow wandering between two stored values).
+
+    ``harmful_only``: drop only those whose removal lowers the residual itself - a slip read where
+    the stem never moved lands the model far from the stem, a real one never does."""
     for _ in range(PRUNE_ROUNDS):
         forced = np.flatnonzero(slips.read)
         if forced.size == 0:
@@ -476,7 +494,7 @@ def _prune_forced(record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_
         regs = np.stack([path_regressors(v, record.n, record.ts_s, hyp.snapshot) for v in variants])
         rss, _ = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
         ic = criterion(rss, fixed + np.array([v.read.sum() for v in variants]), record.n_fit)
-        better = forced[ic[1:] < ic[0]]
+        better = forced[rss[1:] < rss[0]] if harmful_only else forced[ic[1:] < ic[0]]
         if better.size == 0:
             break
         keep = np.setdiff1d(np.arange(slips.at.size), better)
@@ -495,9 +513,10 @@ def _read_levels(path: StemPath, first: ValveFit) -> np.ndarray | None:
     The input estimate's levels are ``g (M - b)``: the first fit gives ``g``, and ``b`` is
     the offset that best aligns them with the landings it predicts.
     """
-    if not (np.isfinite(first.gain_ratio) and first.gain_ratio != 0 and path.slips.size):
+    if not (np.isfinite(first.gain_ratio) and first.gain_ratio != 0 and first.slips.at.size):
         return None
-    data = path.levels[1:] / first.gain_ratio
+    # the read slips that survived the pruning, with the level the data read after each
+    data = path.levels[1:][np.isin(path.slips, first.slips.at)] / first.gain_ratio
     model = first.slips.landing_drive - first.slips.directions * first.stop_pct
     return data + float(np.median(model - data))
 

@@ -86,3 +86,17 @@ def choose_horizon(pv_pct: np.ndarray) -> int:
     if c1 >= NOISY_CHANGE_CORRELATION:
         return 1
     return int(np.clip(round(d.size / 75), 4, 30))
+
+
+def process_sign(op_pct: np.ndarray, pv_pct: np.ndarray) -> int:
+    """+1 where PV rises as OP rises (a direct-acting loop), -1 where it falls; read from the controller.
+
+    A PI controller's proportional part moves OP against PV in the very sample PV moves
+    (``dOP = -Kc dPV + ...``); a stable loop has a process of the sign that makes this feedback
+    negative.  So the sign of the process gain is the sign opposite to OP's and PV's
+    simultaneous changes, whatever the process does - and a fit that needs the other sign has
+    fitted the controller backwards, not the process.
+    """
+    d_op, d_pv = np.diff(np.asarray(op_pct, float)), np.diff(np.asarray(pv_pct, float))
+    c = float(np.sum((d_op - d_op.mean()) * (d_pv - d_pv.mean())))
+    return -1 if c > 0 else 1
