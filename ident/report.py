@@ -110,7 +110,7 @@ def diagnosis_report(
     valve_check: schema.ValveCheck | None = None,
 ) -> schema.DiagnosisReport:
     f = d.friction
-    notes = list(warnings or [])
+    notes = list(warnings or []) + list(d.notes)
     op_range = float(np.ptp(record.op_pct))
     for which, fr in (("extended", f), ("canonical", d.base_friction)):
         why = impossible_valve(fr, op_range)
@@ -135,7 +135,7 @@ def diagnosis_report(
         )
         for c, cand in d.candidates.items()
     }
-    if d.linear_valve_delta <= 0:
+    if d.linear_valve_delta <= 0 and not d.notes:
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
         )
