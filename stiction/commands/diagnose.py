@@ -17,6 +17,7 @@ from stiction.errors import StictionError
 MAX_SAMPLES = 3600
 """Longer exports are diagnosed on their last MAX_SAMPLES samples (the fits grow with the record)."""
 MIN_SAMPLES = 100
+NONE_NAMED = "none: the canonical loop explains the data within its noise"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -42,7 +43,7 @@ def _summary(path: str, r) -> str:
     lines = [
         f"{path}",
         f"  process: {r.process.description}",
-        f"  causes: {causes or ('none: the canonical loop explains the data within its noise' if r.candidates else '-')}",
+        f"  causes: {causes or (NONE_NAMED if r.candidates else '-')}",
         f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
         f"  S {f(r.s_pct)} +- {f(r.s_se_pct)} %  J {f(r.j_pct)} +- {f(r.j_se_pct)} % of span   "
         f"(fs {f(r.fs_pct, 1)} %, fd {f(r.fd_pct, 1)} % of 500 lbf; "
