@@ -112,11 +112,12 @@ def diagnosis_report(
     f = d.friction
     notes = list(warnings or []) + list(d.notes)
     op_range = float(np.ptp(record.op_pct))
-    for which, fr in (("extended", f), ("canonical", d.base_friction)):
-        why = impossible_valve(fr, op_range)
+    linear = d.extended.hypothesis.linear_valve
+    for which, fr in (("extended", None if linear else f), ("canonical", d.base_friction)):
+        why = impossible_valve(fr, op_range) if fr is not None else None
         if why:
             notes.append(f"{which} model: {why}; its friction numbers are withheld")
-    if impossible_valve(f, op_range):
+    if linear or impossible_valve(f, op_range):
         f = _without_friction(f)
     base_friction = (
         d.base_friction if not impossible_valve(d.base_friction, op_range) else _without_friction(d.base_friction)

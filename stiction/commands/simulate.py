@@ -15,13 +15,13 @@ log = logging.getLogger(__name__)
 
 _EXTENSION_HELP = {
     "dead_time_s": "transport delay between valve and PV [s]",
-    "deadband_pct": "valve backlash/deadband, full width [% of OP]",
+    "deadband_pct": "valve backlash/deadband, full width [%% of OP]",
     "actuator_tau_s": "first-order lag between OP and the valve's drive [s]",
     "sensor_tau_s": "first-order filter on the PV measurement [s]",
-    "quantum_pct": "historian storage step of PV and OP [%]",
+    "quantum_pct": "historian storage step of PV and OP [%%]",
     "gain_ratio": "process gain over nominal",
     "osc_period_s": "period of an external oscillating load [s]",
-    "osc_amplitude_pct": "amplitude of that load [% of span]",
+    "osc_amplitude_pct": "amplitude of that load [%% of span]",
     "time_constant_s": "self-regulating process with this time constant instead of the integrator [s]",
 }
 
@@ -42,10 +42,33 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     ext = p.add_argument_group("extensions (the diagnose catalogue)")
     for name, text in _EXTENSION_HELP.items():
         ext.add_argument("--" + name.replace("_", "-"), type=float, help=text)
+    plant = p.add_argument_group("a loop of its own instead of --loop (a plant's flow or level loop)")
+    plant.add_argument("--process-gain", type=float, help="process gain [%%/%% static, or %%/s per %% integrating]")
+    plant.add_argument(
+        "--process-tau-s", type=float, help="process time constant [s]; without it the process integrates"
+    )
+    plant.add_argument("--kc", type=float, help="PI controller gain")
+    plant.add_argument("--ti-s", type=float, help="PI integral time [s]")
+    p.add_argument("--ts-s", type=float, default=1.0, help="the controller's sample time [s] (default 1)")
+    p.add_argument("--record-every", type=int, default=1, help="keep one sample every N controller samples")
+    p.add_argument("--record", choices=["snapshot", "mean"], default="snapshot", help="what a kept sample is")
     p.add_argument("--duration-s", type=float, default=2000.0, help="simulated time from rest [s]")
     p.add_argument("--warmup-s", type=float, default=1000.0, help="samples before this are not written [s]")
     p.add_argument("--out", type=Path, help="output file (CSV; .npz with --grid); CSV goes to stdout without it")
     p.add_argument("--no-truth", action="store_true", help="do not write the PATH.truth.json sidecar")
+
+
+def _process(args):
+    """A loop of its own from --process-gain, --process-tau-s, --kc and --ti-s (all four or none but tau)."""
+    from sim.process import ProcessModel
+
+    own = {"--process-gain": args.process_gain, "--kc": args.kc, "--ti-s": args.ti_s}
+    if all(v is None for v in own.values()) and args.process_tau_s is None:
+        return None
+    missing = [k for k, v in own.items() if v is None]
+    if missing:
+        raise InputError(f"a loop of its own needs {', '.join(missing)} too (and --process-tau-s if it settles)")
+    return ProcessModel(args.process_gain, args.process_tau_s, args.kc, args.ti_s)
 
 
 def _spec(args):
@@ -76,6 +99,7 @@ def _spec(args):
             disturbance=spec.disturbance,
             extensions=Extensions(**given),
             seed=spec.seed,
+            process=_process(args),
         )
     except ValueError as e:
         raise InputError(str(e)) from None
@@ -88,6 +112,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.warmup_s >= args.duration_s:
         raise InputError(f"--warmup-s {args.warmup_s} must be below --duration-s {args.duration_s}")
+    if not args.ts_s > 0 or args.record_every < 1:
+        raise InputError(f"--ts-s {args.ts_s} must be > 0 and --record-every {args.record_every} at least 1")
+    if args.out is not None and args.out.is_dir():
+        raise InputError(f"--out {args.out}: is a directory, expected a file name")
+    if args.out is not None and not args.out.parent.is_dir():
+        raise InputError(f"--out {args.out}: no folder {args.out.parent}")
     if args.grid:
         if args.out is None or args.out.suffix != ".npz":
             raise InputError("--grid writes one .npz file: give --out PATH.npz")
@@ -103,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     spec = _spec(args)
     log.info("simulating %s", spec)
-    result = simulate([spec], duration_s=args.duration_s).kept(args.warmup_s)
+    result = simulate([spec], duration_s=args.duration_s, ts_s=args.ts_s).kept(args.warmup_s)
+    result = result.recorded(args.record_every, args.record)
     if args.out is None:
         export.write_csv(sys.stdout, result)
         return 0
