@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stiction.errors import InputError
+from schemas.errors import InputError
 
 ALIASES = {
     "t": ["t", "t_s", "time", "time_s", "timestamp", "seconds"],

@@ -21,9 +21,9 @@ import numpy as np
 
 from agent.analysis import analyse
 from agent.predictor import load_models, model_version
+from schemas.errors import InputError
 from schemas.report import Estimate, StictionReport
 from sim.valve import band_and_jump_pct
-from stiction.errors import InputError
 
 MIN_SAMPLES = 100
 """The thesis' window; the ACF then finds a period only for cycles up to about 50 samples."""

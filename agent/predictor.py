@@ -12,8 +12,8 @@ import onnxruntime as ort
 
 from agent.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
 from agent.inlpca import InlpcaSettings
+from schemas.errors import StictionError
 from schemas.model_card import CARD_FORMAT, ModelCard
-from stiction.errors import StictionError
 
 log = logging.getLogger(__name__)
 

@@ -19,8 +19,8 @@ from pathlib import Path
 from agent.core import AgentCore, CoreSettings
 from agent.pipeline import Quantifier
 from schemas import keys
+from schemas.errors import StictionError
 from schemas.messages import AgentHealth, LoopTruth
-from stiction.errors import StictionError
 
 log = logging.getLogger(__name__)
 

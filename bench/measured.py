@@ -16,18 +16,10 @@ from pathlib import Path
 
 def _diagnose_file(path: str) -> dict:
     from agent.historian import read_export
-    from ident.diagnose import diagnose
-    from ident.record import Record, choose_horizon
-    from ident.report import diagnosis_report, valve_check_out
-    from ident.valve_check import check_valve
-    from stiction.commands.diagnose import MAX_SAMPLES
+    from ident.report import diagnose_loop
 
     export = read_export(path)
-    op, pv = export.op[-MAX_SAMPLES:], export.pv[-MAX_SAMPLES:]
-    mv = export.mv[-MAX_SAMPLES:] if export.mv is not None else None
-    record = Record(op, pv, export.ts_s, horizon=choose_horizon(pv))
-    check = valve_check_out(check_valve(op, mv, export.ts_s)) if mv is not None else None
-    report = diagnosis_report(Path(path).stem, record, diagnose(record), list(export.warnings), check)
+    report, _, _ = diagnose_loop(Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings)
     return json.loads(report.model_dump_json())
 
 

@@ -169,3 +169,41 @@ def diagnosis_report(
         residual_extended=residual_out(d.extended.fit, record),
         warnings=notes,
     )
+
+
+MAX_SAMPLES = 3600
+"""Longer records are diagnosed on their last MAX_SAMPLES samples (the fits grow with the record)."""
+MIN_SAMPLES = 100
+
+
+def diagnose_loop(
+    name: str,
+    op: np.ndarray,
+    pv: np.ndarray,
+    ts_s: float,
+    mv: np.ndarray | None = None,
+    warnings: tuple[str, ...] | list[str] = (),
+    last: int | None = None,
+    max_causes: int | None = None,
+):
+    """Diagnose one measured loop as ``stiction diagnose`` does: the last ``last`` samples (default
+    up to MAX_SAMPLES, with a warning when more were given), the valve checked against a measured
+    stem where there is one.  Returns (report, record, diagnosis); raises InputError on a record
+    too short to diagnose."""
+    from ident.diagnose import MAX_CAUSES, diagnose
+    from ident.record import choose_horizon
+    from ident.valve_check import check_valve
+    from schemas.errors import InputError
+
+    keep = last or MAX_SAMPLES
+    warnings = list(warnings)
+    if op.size > keep and last is None:
+        warnings.append(f"{op.size} samples: diagnosed the last {keep} (--last to choose)")
+    op, pv = op[-keep:], pv[-keep:]
+    mv = mv[-keep:] if mv is not None else None
+    if op.size < MIN_SAMPLES:
+        raise InputError(f"{op.size} samples, need at least {MIN_SAMPLES} to diagnose")
+    record = Record(op, pv, ts_s, horizon=choose_horizon(pv))
+    d = diagnose(record, max_causes=MAX_CAUSES if max_causes is None else max_causes)
+    check = valve_check_out(check_valve(op, mv, ts_s)) if mv is not None else None
+    return diagnosis_report(name, record, d, warnings, check), record, d

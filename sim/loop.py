@@ -66,7 +66,6 @@ class LoopSpec:
         if not 0 <= self.fd_pct <= self.fs_pct:
             raise ValueError(f"need 0 <= fd_pct <= fs_pct, got fs_pct={self.fs_pct}, fd_pct={self.fd_pct}")
 
-
     @property
     def model(self) -> ProcessModel:
         """The loop's process and controller."""
@@ -143,6 +142,7 @@ def _friction(specs: Sequence[LoopSpec]) -> Friction:
 
 def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
     plants = {}
+
     def key(s: LoopSpec):
         e = s.extensions
         return (s.model, e.gain_ratio, e.time_constant_s, e.sensor_tau_s, e.dead_time_s)

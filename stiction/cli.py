@@ -7,7 +7,7 @@ import importlib
 import logging
 import sys
 
-from stiction.errors import StictionError
+from schemas.errors import StictionError
 
 COMMANDS = {
     "demo": "the main job: simulator, agent and live table in one process, then a summary",

@@ -12,7 +12,7 @@ import socket
 from pathlib import Path
 
 from schemas import keys
-from stiction.errors import InputError
+from schemas.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser, listen_default: bool = True) -> None:

@@ -8,9 +8,9 @@ import os
 import socket
 from pathlib import Path
 
+from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
-from stiction.errors import InputError
 
 log = logging.getLogger(__name__)
 

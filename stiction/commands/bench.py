@@ -9,7 +9,7 @@ import platform
 import sys
 from pathlib import Path
 
-from stiction.errors import InputError
+from schemas.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

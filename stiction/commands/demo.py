@@ -10,10 +10,10 @@ import time
 
 import numpy as np
 
+from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.agent import open_sink
 from stiction.commands.sim import stop_on_signals
-from stiction.errors import InputError
 
 log = logging.getLogger(__name__)
 

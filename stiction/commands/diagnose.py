@@ -12,11 +12,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from stiction.errors import StictionError
+from ident.report import MAX_SAMPLES, MIN_SAMPLES
+from schemas.errors import StictionError
 
-MAX_SAMPLES = 3600
-"""Longer exports are diagnosed on their last MAX_SAMPLES samples (the fits grow with the record)."""
-MIN_SAMPLES = 100
 NONE_NAMED = "none: the canonical loop explains the data within its noise"
 
 
@@ -67,10 +65,7 @@ def _params(cause: str) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     from agent.historian import read_export
-    from ident.diagnose import diagnose
-    from ident.record import Record, choose_horizon
-    from ident.report import diagnosis_report, valve_check_out
-    from ident.valve_check import check_valve
+    from ident.report import diagnose_loop
 
     columns = {f: getattr(args, f"col_{f}") for f in ("op", "pv", "t", "sp", "mv") if getattr(args, f"col_{f}")}
     if args.last is not None and args.last < MIN_SAMPLES:
@@ -81,20 +76,12 @@ def run(args: argparse.Namespace) -> int:
     for path in args.paths:
         try:
             export = read_export(path, args.ts, columns)
-            keep = args.last or MAX_SAMPLES
-            warnings = list(export.warnings)
-            if export.op.size > keep and args.last is None:
-                warnings.append(f"{export.op.size} samples: diagnosed the last {keep} (--last to choose)")
-            op, pv = export.op[-keep:], export.pv[-keep:]
-            mv = export.mv[-keep:] if export.mv is not None else None
-            if op.size < MIN_SAMPLES:
-                raise StictionError(f"{path}: {op.size} samples, need at least {MIN_SAMPLES} to diagnose")
-            record = Record(op, pv, export.ts_s, horizon=choose_horizon(pv))
-            d = diagnose(record, max_causes=args.max_causes)
-            check = valve_check_out(check_valve(op, mv, export.ts_s)) if mv is not None else None
-            report = diagnosis_report(path.stem, record, d, warnings, check)
+            report, record, d = diagnose_loop(
+                path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, args.last, args.max_causes
+            )
         except StictionError as e:  # one bad file never stops the others
-            print(f"stiction diagnose: error: {e}", file=sys.stderr)
+            message = str(e) if str(path) in str(e) else f"{path}: {e}"
+            print(f"stiction diagnose: error: {message}", file=sys.stderr)
             failed += 1
             continue
         print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from stiction.errors import StictionError
+from schemas.errors import StictionError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -7,8 +7,8 @@ import logging
 import signal
 import threading
 
+from schemas.errors import InputError
 from stiction import zenoh_config
-from stiction.errors import InputError
 
 log = logging.getLogger(__name__)
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"

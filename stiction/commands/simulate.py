@@ -9,7 +9,7 @@ import time
 from dataclasses import fields
 from pathlib import Path
 
-from stiction.errors import InputError
+from schemas.errors import InputError
 
 log = logging.getLogger(__name__)
 

@@ -12,7 +12,7 @@ import time
 from dataclasses import fields
 from pathlib import Path
 
-from stiction.errors import InputError, StictionError
+from schemas.errors import InputError, StictionError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

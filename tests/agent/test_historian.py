@@ -7,7 +7,7 @@ import pytest
 
 from agent import historian
 from agent.historian import read_export
-from stiction.errors import InputError
+from schemas.errors import InputError
 
 PLANT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "stictiongpt_plant" / "csv"
 

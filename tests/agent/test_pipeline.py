@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from agent.pipeline import Quantifier, Window
+from schemas.errors import InputError
 from schemas.report import StictionReport
 from sim.grid import case_specs
 from sim.loop import simulate
-from stiction.errors import InputError
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Errors a user can act on: the command line prints the message on one line and exits 2."""
+"""Errors a user can act on, raised at every layer: the command line prints the message on one line and exits 2."""
 
 
 class StictionError(Exception):
