@@ -1,20 +1,26 @@
-"""Historian exports (spec/interfaces.md): CSV with a header row, columns found by their usual aliases.
+"""Historian exports (spec/interfaces.md): a header row, columns found by their usual aliases.
 
-Required: ``op`` and ``pv``; optional: ``t`` (seconds), ``sp``, ``mv``, ``mode``.  Without a
-time column the sample time comes from ``ts_s``.  Every problem is an ``InputError``
-naming the file, the row (1-based, counting the header as row 1) or the column, and
-what was expected.
+Required: ``op`` and ``pv``; optional: ``t`` (seconds or ISO 8601 times), ``sp``, ``mv``,
+``mode``.  Without a time column the sample time comes from ``ts_s``.  The format, separator
+and decimal mark are read from the content (``agent.dialect``).  Files are read in blocks and
+only the window asked for is kept (``last`` samples, or one window every ``every`` samples), so
+memory follows the window, not the file.  Every problem is an ``InputError`` naming the file,
+the row (1-based, counting the header as row 1) or the column, and what was expected.
 """
 
 from __future__ import annotations
 
 import csv
+import itertools
 import math
+import warnings as _warnings
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from agent.dialect import Dialect, sniff
 from schemas.errors import InputError
 
 ALIASES = {
@@ -25,13 +31,18 @@ ALIASES = {
     "mv": ["mv", "mv_pct", "valve", "valve_position", "position"],
     "mode": ["mode", "auto", "man"],
 }
-MAX_BYTES = 200 * 1024 * 1024
+EXPORT_SUFFIXES = (".csv", ".txt", ".tsv", ".parquet", ".pq")
+MAX_BYTES = 4 * 1024**3
+"""Larger files are refused unread (they are read in blocks, so this bounds time, not memory)."""
+BLOCK_ROWS = 65536
 GAP_TOLERANCE = 0.01
 """Relative deviation of a time step from the sample time that counts as a gap."""
 
 
 @dataclass(frozen=True)
 class Export:
+    """One window of an export: the samples kept, and which rows of the file they are."""
+
     path: str
     op: np.ndarray
     pv: np.ndarray
@@ -40,15 +51,388 @@ class Export:
     sp: np.ndarray | None
     mv: np.ndarray | None
     warnings: tuple[str, ...]
+    mode: np.ndarray | None = None
+    first_row: int = 2
+    """File row of the first sample kept (the header is row 1)."""
+    rows_in_file: int | None = None
+    """Samples in the whole file (None until the file has been read to its end)."""
+
+    @property
+    def last_row(self) -> int:
+        return self.first_row + self.op.size - 1
+
+
+def expand_paths(paths: Sequence[Path]) -> list[Path]:
+    """Paths as given, each folder replaced by the exports in it (by suffix, sorted); a folder
+    with none stays as it is so that reading it says so."""
+    out: list[Path] = []
+    for p in paths:
+        p = Path(p)
+        found = []
+        if p.is_dir():
+            found = sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in EXPORT_SUFFIXES)
+        out.extend(found or [p])
+    return out
+
+
+def read_export(
+    path: Path | str, ts_s: float | None = None, columns: dict[str, str] | None = None, last: int | None = None
+) -> Export:
+    """Read one export, keeping its last ``last`` samples (all when None); ``columns`` maps
+    ``op``/``pv``/``t``/``sp``/``mv``/``mode`` to the file's own names."""
+    reader = _Reader(path, ts_s, columns)
+    tail = _Tail(last)
+    for block in reader.blocks():
+        tail.add(block)
+    window = tail.window()
+    if window is None:
+        raise InputError(f"{reader.name}: header only, no samples")
+    return reader.export(window, tail.seen)
+
+
+def read_windows(
+    path: Path | str, length: int, every: int, ts_s: float | None = None, columns: dict[str, str] | None = None
+) -> Iterator[Export]:
+    """Windows of ``length`` samples, one ending every ``every`` samples from the first full one;
+    a file shorter than ``length`` gives one window of all its samples."""
+    if length < 1 or every < 1:
+        raise InputError(f"window of {length} samples every {every}: both must be at least 1")
+    reader = _Reader(path, ts_s, columns)
+    tail = _Tail(length)
+    next_end = length
+    for block in reader.blocks():
+        tail.add(block, keep_from=max(0, next_end - length))
+        while tail.seen >= next_end:
+            yield reader.export(tail.window(end=next_end), None)
+            next_end += every
+    if tail.seen < length:
+        window = tail.window()
+        if window is None:
+            raise InputError(f"{reader.name}: header only, no samples")
+        yield reader.export(window, tail.seen)
+
+
+@dataclass
+class _Block:
+    first: int  # index of the block's first sample in the file (0-based)
+    values: dict[str, np.ndarray]
+
+
+class _Tail:
+    """The last ``keep`` samples of a stream of blocks (all when ``keep`` is None)."""
+
+    def __init__(self, keep: int | None):
+        self.keep, self.seen, self.blocks = keep, 0, []
+
+    def add(self, block: _Block, keep_from: int | None = None) -> None:
+        self.blocks.append(block)
+        self.seen = block.first + next(iter(block.values.values())).size
+        if self.keep is None:
+            return
+        start = self.seen - self.keep if keep_from is None else min(keep_from, self.seen - self.keep)
+        while len(self.blocks) > 1 and self.blocks[1].first <= start:
+            self.blocks.pop(0)
+
+    def window(self, end: int | None = None) -> _Block | None:
+        if not self.blocks:
+            return None
+        end = self.seen if end is None else end
+        start = self.blocks[0].first if self.keep is None else max(self.blocks[0].first, end - self.keep)
+        used = [b for b in self.blocks if b.first < end and b.first + b.values["op"].size > start]
+        first = used[0].first
+        values = {f: np.concatenate([b.values[f] for b in used])[start - first : end - first] for f in used[0].values}
+        return _Block(start, values)
+
+
+class _Reader:
+    """One export read block by block, time checked across blocks."""
+
+    def __init__(self, path: Path | str, ts_s: float | None, columns: dict[str, str] | None):
+        self.path = Path(path)
+        self.name = str(path)
+        self.ts_flag = ts_s
+        self.columns = columns or {}
+        if self.path.is_dir():
+            raise InputError(f"{self.name}: a folder with no exports ({', '.join(EXPORT_SUFFIXES)}) in it")
+        if not self.path.is_file():
+            raise InputError(f"{self.name}: no such file")
+        size = self.path.stat().st_size
+        if size > MAX_BYTES:
+            raise InputError(f"{self.name}: {size} bytes, more than the {MAX_BYTES} a loop export may have")
+        if size == 0:
+            raise InputError(f"{self.name}: empty file, expected a header row with op and pv columns")
+        self.dialect: Dialect = sniff(self.path)
+        self.ts: float | None = None
+        self.last_t: float | None = None
+        self.relabelled = 0
+        self.mode_values: set[float] = set()
+
+    # -- blocks ---------------------------------------------------------------------------------
+
+    def blocks(self) -> Iterator[_Block]:
+        source = self._parquet_blocks() if self.dialect.format == "parquet" else self._csv_blocks()
+        for block in source:
+            self._time(block)
+            yield block
+
+    def _columns(self, header: list[str]) -> dict[str, int]:
+        self.header = [h.strip() for h in header]
+        idx = {f: _find(self.header, f, self.columns.get(f), self.name) for f in ALIASES}
+        for required in ("op", "pv"):
+            if idx[required] is None:
+                raise InputError(
+                    f"{self.name}: no {required} column (columns: {', '.join(self.header)}; read as "
+                    f"{self.dialect.describe()}); name it with --{required}"
+                )
+        return {f: i for f, i in idx.items() if i is not None}
+
+    def _csv_blocks(self) -> Iterator[_Block]:
+        d = self.dialect
+        with self.path.open(newline="", encoding=d.encoding, errors="strict") as f:
+            reader = csv.reader(f, delimiter=d.separator)
+            try:
+                header = next(reader, None)
+                if not header:
+                    raise InputError(f"{self.name}: empty file, expected a header row with op and pv columns")
+                idx = self._columns(header)
+                first = 0
+                while True:
+                    line_before = reader.line_num
+                    rows = list(itertools.islice(reader, BLOCK_ROWS))
+                    if not rows:
+                        return
+                    rownums = None
+                    if any(not r for r in rows) or reader.line_num - line_before != len(rows):
+                        rownums = _row_numbers(rows, line_before)
+                        rows = [r for r in rows if r]
+                        if not rows:
+                            continue
+                    values = self._parse_rows(rows, idx, first, rownums)
+                    yield _Block(first, values)
+                    first += len(rows)
+            except UnicodeDecodeError as e:
+                raise InputError(f"{self.name}: not a text CSV ({e.reason} after row {reader.line_num})") from None
+            except csv.Error as e:
+                raise InputError(f"{self.name}: row {reader.line_num}: {e}") from None
+
+    def _parse_rows(self, rows, idx, first, rownums) -> dict[str, np.ndarray]:
+        width = len(self.header)
+
+        def row_of(k: int) -> int:
+            return rownums[k] if rownums is not None else first + k + 2
+
+        lengths = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+        bad = np.flatnonzero(lengths != width)
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"{self.name}: row {row_of(k)} has {lengths[k]} fields, the header has {width}")
+        values = {}
+        for field, i in idx.items():
+            texts = [r[i] for r in rows]
+            values[field] = self._numbers(field, i, texts, row_of)
+        return values
+
+    def _numbers(self, field: str, i: int, texts: list[str], row_of) -> np.ndarray:
+        column = self.header[i]
+        raw = texts
+        if self.dialect.decimal == ",":
+            texts = [s.replace(",", ".") for s in texts]
+        try:
+            x = np.array(texts, dtype=np.float64)
+        except ValueError:
+            x = self._time_strings(raw, column, row_of) if field == "t" else None
+            if x is None:
+                for k, s in enumerate(texts):
+                    try:
+                        float(s)
+                    except ValueError:
+                        what = "an empty field" if not s.strip() else "not a number"
+                        raise InputError(
+                            f"{self.name}: row {row_of(k)}, column {column!r}: {raw[k]!r} is {what}"
+                        ) from None
+        self._finite(x, column, raw, row_of)
+        return x
+
+    def _time_strings(self, texts: list[str], column: str, row_of) -> np.ndarray | None:
+        """ISO 8601 times as seconds, or None when the first unreadable value is not a time either."""
+        with _warnings.catch_warnings():
+            _warnings.simplefilter("ignore")  # numpy warns that a UTC offset has no representation
+            try:
+                stamps = np.array([s.strip().replace("Z", "") for s in texts], dtype="datetime64[ms]")
+            except ValueError:
+                for k, s in enumerate(texts):
+                    try:
+                        float(s)
+                    except ValueError:
+                        try:
+                            np.datetime64(s.strip().replace("Z", ""), "ms")
+                        except ValueError:
+                            raise InputError(
+                                f"{self.name}: row {row_of(k)}, column {column!r}: {s!r} is neither seconds "
+                                "nor an ISO 8601 time"
+                            ) from None
+                return None
+        if np.isnat(stamps).any():
+            k = int(np.flatnonzero(np.isnat(stamps))[0])
+            raise InputError(f"{self.name}: row {row_of(k)}, column {column!r}: {texts[k]!r} is not a time")
+        return stamps.astype(np.int64) / 1000.0
+
+    def _finite(self, x: np.ndarray, column: str, raw, row_of) -> None:
+        bad = np.flatnonzero(~np.isfinite(x))
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(
+                f"{self.name}: row {row_of(k)}, column {column!r}: {str(raw[k])!r}, expected a finite number "
+                f"({bad.size} such values in rows {row_of(k)}-{row_of(int(bad[-1]))})"
+            )
+        big = np.flatnonzero(np.abs(x) > 1e12)
+        if big.size and column.lower() not in ALIASES["t"]:
+            k = int(big[0])
+            raise InputError(
+                f"{self.name}: row {row_of(k)}, column {column!r}: {str(raw[k])!r} is no percent of span "
+                "(more than 1e12 in size); expected values of about 0-100"
+            )
+
+    def _parquet_blocks(self) -> Iterator[_Block]:
+        try:
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise InputError(f"{self.name}: reading Parquet needs pyarrow (pip install pyarrow)") from None
+        try:
+            pf = pq.ParquetFile(self.path)
+            idx = self._columns(list(pf.schema_arrow.names))
+            wanted = {f: self.header[i] for f, i in idx.items()}
+            first = 0
+            for batch in pf.iter_batches(batch_size=BLOCK_ROWS, columns=list(dict.fromkeys(wanted.values()))):
+                n = batch.num_rows
+                if n == 0:
+                    continue
+                values = {}
+                for field, column in wanted.items():
+                    values[field] = self._parquet_column(field, column, batch.column(column), first)
+                yield _Block(first, values)
+                first += n
+        except InputError:
+            raise
+        except Exception as e:  # pyarrow's errors: a damaged or truncated file
+            raise InputError(f"{self.name}: not a readable Parquet file ({str(e).splitlines()[0][:120]})") from None
+
+    def _parquet_column(self, field: str, column: str, arr, first: int) -> np.ndarray:
+        import pyarrow as pa
+
+        def row_of(k: int) -> int:
+            return first + k + 2
+
+        if arr.null_count:
+            k = int(np.flatnonzero(np.asarray(arr.is_null()))[0])
+            raise InputError(f"{self.name}: row {row_of(k)}, column {column!r}: empty, expected a finite number")
+        if pa.types.is_timestamp(arr.type) or pa.types.is_date(arr.type):
+            return arr.cast(pa.timestamp("ms")).to_numpy().astype(np.int64) / 1000.0
+        if pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type):
+            return self._numbers(field, self.header.index(column), arr.to_pylist(), row_of)
+        try:
+            x = arr.to_numpy(zero_copy_only=False).astype(np.float64)
+        except (TypeError, ValueError, pa.ArrowInvalid):
+            raise InputError(f"{self.name}: column {column!r} is {arr.type}, expected numbers") from None
+        self._finite(x, column, x, row_of)
+        return x
+
+    # -- time -----------------------------------------------------------------------------------
+
+    def _time(self, block: _Block) -> None:
+        """Check time order and spacing within the block and across the previous one."""
+        if "mode" in block.values:
+            self.mode_values.update(np.unique(block.values["mode"]).tolist()[:3])
+        t = block.values.get("t")
+        if t is None:
+            return
+        t, relabelled = _relabel_off_grid(t)
+        self.relabelled += relabelled
+        block.values["t"] = t
+        if self.ts is None and t.size > 1:
+            self.ts = float(np.median(np.diff(t)))
+        joined = t if self.last_t is None else np.concatenate([[self.last_t], t])
+        offset = block.first + (2 if self.last_t is None else 1)  # file row of joined[0]
+        step = np.diff(joined)
+        bad = np.flatnonzero(step <= 0)
+        if bad.size:
+            k = int(bad[0])
+            kind = "repeats" if step[k] == 0 else "goes back from"
+            raise InputError(
+                f"{self.name}: row {offset + k + 1}: time {joined[k + 1]:g} {kind} the row before ({joined[k]:g}); "
+                "samples must be in time order without duplicates"
+            )
+        if self.ts is not None:
+            gaps = np.flatnonzero(np.abs(step - self.ts) > GAP_TOLERANCE * self.ts)
+            if gaps.size:
+                k = int(gaps[0])
+                raise InputError(
+                    f"{self.name}: row {offset + k + 1}: time step {step[k]:g} s where the file's sample time is "
+                    f"{self.ts:g} s; a gap or uneven sampling ({gaps.size} such steps in this stretch)"
+                )
+        self.last_t = float(t[-1])
+
+    # -- the window as an Export ----------------------------------------------------------------
+
+    def export(self, block: _Block, rows_in_file: int | None) -> Export:
+        v = block.values
+        n = v["op"].size
+        notes = []
+        if "t" in v:
+            ts = self.ts if self.ts is not None else (1.0 if self.ts_flag is None else self.ts_flag)
+            if self.ts_flag is not None and abs(self.ts_flag - ts) > GAP_TOLERANCE * ts:
+                raise InputError(f"{self.name}: --ts {self.ts_flag} s disagrees with the time column's {ts:g} s")
+            t = v["t"]
+        else:
+            ts = 1.0 if self.ts_flag is None else self.ts_flag
+            t = (block.first + np.arange(n)) * ts
+        if not (math.isfinite(ts) and ts > 0):
+            raise InputError(f"{self.name}: sample time {ts} s, expected a positive number")
+        if self.relabelled:
+            notes.append(
+                f"{self.relabelled} timestamps sit one sample off an even grid (e.g. a repeated stamp "
+                "followed by a double step): read as evenly sampled"
+            )
+        op = v["op"]
+        if np.ptp(op) < 1.5 and op.min() >= 0 and op.max() <= 1.0 + 1e-9:
+            notes.append("op lies within 0..1: if it is a fraction, not percent, scale it by 100")
+        if "mode" in v and np.ptp(v["mode"]) > 0:
+            notes.append("the mode column changes within the file: part of it may be in manual (open loop)")
+        if (rows_in_file is not None and n < rows_in_file) or block.first > 0:
+            of = f"{n} of {rows_in_file} samples" if rows_in_file is not None else f"{n} samples"
+            notes.append(f"rows {block.first + 2}-{block.first + n + 1} of the file analysed ({of})")
+        return Export(
+            self.name,
+            op,
+            v["pv"],
+            float(ts),
+            t,
+            v.get("sp"),
+            v.get("mv"),
+            tuple(notes),
+            v.get("mode"),
+            block.first + 2,
+            rows_in_file,
+        )
+
+
+def _row_numbers(rows: list[list[str]], line_before: int) -> list[int]:
+    """File rows of the non-empty rows of a block (blank lines skipped); quoted line breaks are
+    not expected in numeric exports, so each row is one line."""
+    out, line = [], line_before
+    for r in rows:
+        line += 1
+        if r:
+            out.append(line)
+    return out
 
 
 def _find(header: list[str], field: str, override: str | None, path: str) -> int | None:
-    names = [h.strip() for h in header]
     if override is not None:
-        if override not in names:
-            raise InputError(f"{path}: no column {override!r} for {field} (columns: {', '.join(names)})")
-        return names.index(override)
-    lowered = [n.lower() for n in names]
+        if override not in header:
+            raise InputError(f"{path}: no column {override!r} for {field} (columns: {', '.join(header)})")
+        return header.index(override)
+    lowered = [n.lower() for n in header]
     for alias in ALIASES[field]:
         if alias in lowered:
             return lowered.index(alias)
@@ -75,107 +459,3 @@ def _relabel_off_grid(t: np.ndarray) -> tuple[np.ndarray, int]:
     if np.any(np.abs(np.abs(t - grid)[off] - ts) > GAP_TOLERANCE * ts):
         return t, 0
     return np.where(off, grid, t), int(off.sum())
-
-
-def _parse_time(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        return np.datetime64(text.strip().replace("Z", ""), "ms").astype("int64") / 1000.0
-
-
-def read_export(path: Path | str, ts_s: float | None = None, columns: dict[str, str] | None = None) -> Export:
-    """Read one export; ``columns`` maps ``op``/``pv``/``t``/``sp``/``mv`` to the file's own names."""
-    path = Path(path)
-    name = str(path)
-    columns = columns or {}
-    if not path.is_file():
-        raise InputError(f"{name}: no such file")
-    if path.stat().st_size > MAX_BYTES:
-        raise InputError(f"{name}: {path.stat().st_size} bytes, more than the {MAX_BYTES} a loop export may have")
-    if path.suffix.lower() == ".parquet":
-        rows, header = _read_parquet(path)
-    else:
-        try:
-            with path.open(newline="", encoding="utf-8-sig") as f:
-                reader = csv.reader(f)
-                header = next(reader, None)
-                rows = list(reader)
-        except UnicodeDecodeError as e:
-            raise InputError(f"{name}: not a text CSV ({e.reason} at byte {e.start})") from None
-    if not header:
-        raise InputError(f"{name}: empty file, expected a header row with op and pv columns")
-    idx = {f: _find(header, f, columns.get(f), name) for f in ALIASES}
-    for required in ("op", "pv"):
-        if idx[required] is None:
-            raise InputError(
-                f"{name}: no {required} column (columns: {', '.join(h.strip() for h in header)}); "
-                f"name it with --{required}"
-            )
-    if not rows:
-        raise InputError(f"{name}: header only, no samples")
-    values = {f: np.empty(len(rows)) for f, i in idx.items() if i is not None}
-    for r, row in enumerate(rows, start=2):
-        if len(row) != len(header):
-            raise InputError(f"{name}: row {r} has {len(row)} fields, the header has {len(header)}")
-        for f, i in idx.items():
-            if i is None:
-                continue
-            text = row[i].strip()
-            try:
-                v = _parse_time(text) if f == "t" else float(text)
-            except ValueError:
-                raise InputError(f"{name}: row {r}, column {header[i].strip()!r}: {text!r} is not a number") from None
-            if not math.isfinite(v):
-                raise InputError(f"{name}: row {r}, column {header[i].strip()!r}: {text!r}, expected a finite number")
-            values[f][r - 2] = v
-    warnings = []
-    if "t" in values:
-        t = values["t"]
-        step = np.diff(t)
-        t, relabelled = _relabel_off_grid(t)
-        if relabelled:
-            warnings.append(
-                f"{relabelled} timestamps sit one sample off an even grid (e.g. a repeated stamp "
-                "followed by a double step): read as evenly sampled"
-            )
-            step = np.diff(t)
-        bad = np.flatnonzero(step <= 0)
-        if bad.size:
-            r = bad[0] + 3
-            kind = "repeats" if step[bad[0]] == 0 else "goes back from"
-            raise InputError(
-                f"{name}: row {r}: time {t[bad[0] + 1]:g} {kind} the row before ({t[bad[0]]:g}); "
-                "samples must be in time order without duplicates"
-            )
-        ts_file = float(np.median(step)) if step.size else float("nan")
-        gaps = np.flatnonzero(np.abs(step - ts_file) > GAP_TOLERANCE * ts_file)
-        if gaps.size:
-            r = gaps[0] + 3
-            raise InputError(
-                f"{name}: row {r}: time step {step[gaps[0]]:g} s where the file's sample time is "
-                f"{ts_file:g} s; a gap or uneven sampling ({gaps.size} such steps)"
-            )
-        if ts_s is not None and abs(ts_s - ts_file) > GAP_TOLERANCE * ts_file:
-            raise InputError(f"{name}: --ts {ts_s} s disagrees with the time column's {ts_file:g} s")
-        ts = ts_file
-    else:
-        ts = 1.0 if ts_s is None else ts_s
-        t = np.arange(len(rows)) * ts
-    op = values["op"]
-    if np.ptp(op) < 1.5 and op.min() >= 0 and op.max() <= 1.0 + 1e-9:
-        warnings.append("op lies within 0..1: if it is a fraction, not percent, scale it by 100")
-    if "mode" in values and np.ptp(values["mode"]) > 0:
-        warnings.append("the mode column changes within the file: part of it may be in manual (open loop)")
-    return Export(name, op, values["pv"], ts, t, values.get("sp"), values.get("mv"), tuple(warnings))
-
-
-def _read_parquet(path: Path):
-    try:
-        import pyarrow.parquet as pq
-    except ImportError:
-        raise InputError(f"{path}: reading parquet needs pyarrow (pip install pyarrow)") from None
-    table = pq.read_table(path)
-    header = table.column_names
-    cols = [table.column(c).to_pylist() for c in header]
-    return [[str(v) for v in row] for row in zip(*cols, strict=True)], header

@@ -21,6 +21,7 @@ import numpy as np
 
 from agent.analysis import analyse
 from agent.predictor import load_models, model_version
+from ident.checks import blocking, data_checks, impossible_friction
 from schemas.errors import InputError
 from schemas.report import Estimate, StictionReport
 from sim.valve import band_and_jump_pct
@@ -73,6 +74,30 @@ class Details:
 def _opt(x) -> float | None:
     x = float(x)
     return x if math.isfinite(x) else None
+
+
+def _estimate(values) -> Estimate:
+    if values is None:
+        return Estimate(fs_pct=None, fd_pct=None)
+    fs, fd, fs_se, fd_se = values
+    return Estimate(fs_pct=_opt(fs), fd_pct=_opt(fd), fs_se_pct=_opt(fs_se), fd_se_pct=_opt(fd_se))
+
+
+def _impossible(fs_pct, fd_pct, fs_se_pct, fd_se_pct, op_range_pct: float) -> str | None:
+    """Why no valve the models know has this friction, or None: fs beyond 500 lbf, fd above fs
+    or below zero, a band wider than OP moved (each beyond two standard errors)."""
+    if not (np.isfinite(fs_pct) and np.isfinite(fd_pct)):
+        return None
+    fs_se = fs_se_pct if np.isfinite(fs_se_pct) else 0.0
+    fd_se = fd_se_pct if np.isfinite(fd_se_pct) else 0.0
+    if fs_pct - 2 * fs_se > 100.0:
+        return f"fs {fs_pct:.0f} % of 500 lbf is beyond the largest friction the models know (100 %)"
+    if fd_pct + 2 * fd_se < 0:
+        return f"fd {fd_pct:.1f} % is below zero"
+    s_pct, j_pct = band_and_jump_pct(fs_pct, fd_pct)
+    s_se, _ = band_and_jump_pct(fs_se, 0.0)
+    j_se = band_and_jump_pct(float(np.hypot(fs_se, fd_se)), 0.0)[0]
+    return impossible_friction(float(s_pct), float(j_pct), float(s_se), float(j_se), op_range_pct)
 
 
 class Quantifier:
@@ -139,16 +164,26 @@ class Quantifier:
                 warnings.append("process not declared: the physical reading of the slips (level loop) is not used")
             if np.isfinite(ood[i]) and ood[i] > 1:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
-            if physical_ok[i]:
-                method, fs, fd = "physical", phys.fs_pct[i], phys.fd_pct[i]
-                fs_se, fd_se = phys.fs_se_pct[i], phys.fd_se_pct[i]
-            elif cycle_ok[i]:
-                method, fs, fd, fs_se, fd_se = "learned", learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]
-            elif thesis_ok[i]:
-                method, fs, fd, fs_se, fd_se = "thesis", thesis[i, 0], thesis[i, 1], np.nan, np.nan
-            else:
-                method, fs, fd, fs_se, fd_se = "none", np.nan, np.nan, np.nan, np.nan
-                warnings.append("no estimate: no oscillation period found")
+            problems = data_checks(op[i], pv[i])
+            warnings = [c.message for c in problems] + warnings
+            candidates = [
+                ("physical", physical_ok[i], phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i]),
+                ("learned", cycle_ok[i], learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]),
+                ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
+            ]
+            method, fs, fd, fs_se, fd_se = "none", np.nan, np.nan, np.nan, np.nan
+            shown = {}  # each method's block: null where it did not run, is impossible or the data are bad
+            for name, ok, *estimate in candidates:
+                why = _impossible(*estimate, float(np.ptp(op[i]))) if ok else None
+                if why and not blocking(problems):
+                    warnings.append(f"{name} estimate withheld: {why}")
+                shown[name] = estimate if ok and not why and not blocking(problems) else None
+                if shown[name] is not None and method == "none":
+                    method, fs, fd, fs_se, fd_se = name, *estimate
+            if blocking(problems):
+                warnings.append("no estimate: the data cannot show a valve's friction (above)")
+            elif method == "none":
+                warnings.append("no estimate: no oscillation period found, or every reading withheld")
             fs, fd = _opt(fs), _opt(fd)
             s_pct, j_pct = band_and_jump_pct(fs, fd) if fs is not None and fd is not None else (None, None)
             reports.append(
@@ -163,19 +198,9 @@ class Quantifier:
                     period_s=_opt(a.period_s[i]),
                     denoised=bool(a.noisy[i]),
                     method=method,
-                    thesis=Estimate(fs_pct=_opt(thesis[i, 0]), fd_pct=_opt(thesis[i, 1])),
-                    physical=Estimate(
-                        fs_pct=_opt(phys.fs_pct[i]),
-                        fd_pct=_opt(phys.fd_pct[i]),
-                        fs_se_pct=_opt(phys.fs_se_pct[i]),
-                        fd_se_pct=_opt(phys.fd_se_pct[i]),
-                    ),
-                    learned=Estimate(
-                        fs_pct=_opt(learned[i, 0]),
-                        fd_pct=_opt(learned[i, 1]),
-                        fs_se_pct=_opt(spread[i, 0]),
-                        fd_se_pct=_opt(spread[i, 1]),
-                    ),
+                    thesis=_estimate(shown["thesis"]),
+                    physical=_estimate(shown["physical"]) if level[i] and shown["physical"] is not None else None,
+                    learned=_estimate(shown["learned"]),
                     ood_score=_opt(ood[i]),
                     explained=_opt(a.fit.explained[i]),
                     oscillating=oscillating,

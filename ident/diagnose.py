@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ident import fit, lattice
+from ident import checks, fit, lattice
 from ident.fit import Friction, Hypothesis, ValveFit, criterion, fit_valve, friction
 from ident.process import Dynamics
 from ident.record import Record, process_sign
@@ -414,15 +414,6 @@ def _select(fitter: Fitter, start: Model, max_causes: int) -> tuple[Model, list[
     return current, steps
 
 
-FLAT_PV = "PV does not move in this record (a dead sensor, or a loop at rest): nothing to diagnose"
-
-
-def record_moves(x: np.ndarray) -> bool:
-    """Whether a signal moves more than its own rounding (a constant 3.5e-44 is a dead sensor, not a loop)."""
-    x = np.asarray(x, float)
-    return bool(np.ptp(x) > 1e-9 * max(1.0, float(np.max(np.abs(x)))))
-
-
 def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     """Forward selection over the catalogue from the canonical loop (see the module's docstring).
 
@@ -434,9 +425,9 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     fitter = Fitter(record)
     vf, ic = fitter.full(Hypothesis())
     base = Model(Hypothesis(), vf, ic)
-    if not record_moves(record.pv_pct):
-        # a dead sensor or a loop at rest: no model of the loop has anything to explain
-        return Diagnosis(base, base, {}, [], friction(vf, record), friction(vf, record), 0.0, [FLAT_PV])
+    if checks.flat(record.pv_pct):
+        # a dead sensor or a loop at rest (``ident.checks`` names it): no model has anything to explain
+        return Diagnosis(base, base, {}, [], friction(vf, record), friction(vf, record), 0.0, [])
     sticky, sticky_steps = _select(fitter, base, max_causes)
     linear_hyp = Hypothesis(linear_valve=True)
     vf_linear, ic_linear = fitter.full(linear_hyp)

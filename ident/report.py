@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ident.checks import blocking, data_checks, impossible_friction
 from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
 from ident.fit import Friction, ValveFit
 from ident.process import NOMINAL
@@ -84,17 +85,8 @@ def valve_check_out(v) -> schema.ValveCheck:
 
 
 def impossible_valve(f: Friction, op_range_pct: float) -> str | None:
-    """Why no valve can have this friction, or None: a band wider than OP ever moved, a jump
-    below zero or above the band (each beyond two standard errors)."""
-    if not (np.isfinite(f.s_pct) and np.isfinite(f.j_pct)):
-        return None
-    s_se = f.s_se_pct if np.isfinite(f.s_se_pct) else 0.0
-    j_se = f.j_se_pct if np.isfinite(f.j_se_pct) else 0.0
-    if f.s_pct <= 0 or f.s_pct - 2 * s_se > op_range_pct:
-        return f"the fit reads a band S of {f.s_pct:.3g} % where OP moved {op_range_pct:.3g} %: no valve slips so"
-    if f.j_pct + 2 * j_se < 0 or f.j_pct - 2 * j_se > f.s_pct + 2 * s_se:
-        return f"the fit reads a jump J of {f.j_pct:.3g} % with a band of {f.s_pct:.3g} %: no valve jumps so"
-    return None
+    """Why no valve can have this friction, or None (``ident.checks.impossible_friction``)."""
+    return impossible_friction(f.s_pct, f.j_pct, f.s_se_pct, f.j_se_pct, op_range_pct)
 
 
 def _without_friction(f: Friction) -> Friction:
@@ -110,17 +102,22 @@ def diagnosis_report(
     valve_check: schema.ValveCheck | None = None,
 ) -> schema.DiagnosisReport:
     f = d.friction
-    notes = list(warnings or []) + list(d.notes)
+    problems = data_checks(record.op_pct, record.pv_pct)
+    notes = [c.message for c in problems] + list(warnings or []) + [n for n in d.notes]
+    if blocking(problems):
+        notes.append("the data cannot show a valve's friction (above): its numbers are withheld")
     op_range = float(np.ptp(record.op_pct))
     linear = d.extended.hypothesis.linear_valve
     for which, fr in (("extended", None if linear else f), ("canonical", d.base_friction)):
         why = impossible_valve(fr, op_range) if fr is not None else None
         if why:
             notes.append(f"{which} model: {why}; its friction numbers are withheld")
-    if linear or impossible_valve(f, op_range):
+    if linear or impossible_valve(f, op_range) or blocking(problems):
         f = _without_friction(f)
     base_friction = (
-        d.base_friction if not impossible_valve(d.base_friction, op_range) else _without_friction(d.base_friction)
+        d.base_friction
+        if not (impossible_valve(d.base_friction, op_range) or blocking(problems))
+        else _without_friction(d.base_friction)
     )
     params = cause_parameters(d.extended)
     candidates = {
@@ -136,7 +133,7 @@ def diagnosis_report(
         )
         for c, cand in d.candidates.items()
     }
-    if d.linear_valve_delta <= 0 and not d.notes:
+    if d.linear_valve_delta <= 0 and not d.notes and not blocking(problems):
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
         )

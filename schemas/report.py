@@ -40,7 +40,10 @@ class StictionReport(BaseModel):
         "cycle predictor, the thesis chain, or none"
     )
     thesis: Estimate = Field(description="the thesis chain's estimate (ACF, INLPCA, 100-sample OP MLP)")
-    physical: Estimate = Field(description="the physical reading of the slips (level loop)")
+    physical: Estimate | None = Field(
+        description="the physical reading of the slips; null unless the loop is declared the level loop "
+        "and its data can be read"
+    )
     learned: Estimate = Field(description="the learned cycle predictor (ensemble mean and spread)")
     ood_score: float | None = Field(
         description="distance of the window from the training data: <= 1 inside the range of 99 % of training windows"

@@ -6,6 +6,9 @@ import argparse
 import importlib
 import logging
 import sys
+import traceback
+import warnings
+from pathlib import Path
 
 from schemas.errors import StictionError
 
@@ -37,6 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    if args.verbose == 0:
+        # overflow or an empty mean on a user's odd data is named by the checks, not by numpy
+        warnings.simplefilter("ignore", RuntimeWarning)
     try:
         return args._module.run(args)
     except StictionError as e:
@@ -44,6 +50,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         return 130
+    except Exception as e:  # a bug: one line for the user, the traceback with -vv
+        if args.verbose >= 2:
+            raise
+        where = traceback.extract_tb(e.__traceback__)[-1]
+        print(
+            f"stiction {args.command}: internal error: {type(e).__name__}: {e} "
+            f"(at {Path(where.filename).name}:{where.lineno}; -vv shows the traceback; please report it)",
+            file=sys.stderr,
+        )
+        return 1
 
 
 if __name__ == "__main__":

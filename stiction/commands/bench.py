@@ -12,6 +12,23 @@ from pathlib import Path
 from schemas.errors import InputError
 
 
+def _plain(x):
+    """numpy scalars and arrays as JSON's numbers and lists."""
+    import numpy as np
+
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, Path):
+        return str(x)
+    raise TypeError(f"{type(x).__name__} is not JSON")
+
+
+def _print_json(figures) -> None:
+    """Every ``bench ... --json`` prints exactly one JSON object."""
+    print(json.dumps(figures, default=_plain), flush=True)
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="bench", required=True, metavar="BENCH")
     s = sub.add_parser("sim", help="the training grid's time against the ODE reference")
@@ -62,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.no_agreement:
             figures["agreement"] = bench_agreement()
         if args.json:
-            print(json.dumps(figures))
+            _print_json(figures)
         else:
             print(f"grid: {figures['loops']} loops x {figures['duration_s']:.0f} s, physical valve, one core")
             print(
@@ -103,7 +120,7 @@ def _measured(args) -> None:
         raise InputError(f"{', '.join(missing)}: no such folder or file")
     figures = bench_measured(args.folders, args.workers) | {"host": _machine()}
     if args.json:
-        print(json.dumps(figures))
+        _print_json(figures)
         return
     if args.markdown:
         print(markdown(figures))
@@ -159,7 +176,7 @@ def _diagnose(args) -> None:
         figures["retrained"] = bench_retrained(args.loops, causes, args.retrain, progress=retrained)
     figures["host"] = _machine()
     if args.json:
-        print(json.dumps(figures))
+        _print_json(figures)
     else:
         o = figures["overall"]
         print(
@@ -180,7 +197,7 @@ def _accuracy(args) -> None:
         progress=lambda name: print(f"  done: {name}", file=sys.stderr),
     ) | {"host": _machine()}
     if args.json:
-        print(json.dumps(figures))
+        _print_json(figures)
         return
     sets = ["C1-C10", "N1-N10", "holdout"]
     print(
@@ -213,7 +230,7 @@ def _throughput(args) -> None:
     f = run_throughput(args.loops, args.seconds, args.speed, report_every=args.report_every, agents=args.agents)
     f |= {"host": _machine()}
     if args.json:
-        print(json.dumps(f))
+        _print_json(f)
         return
     lat = (
         f"p50 {f['latency_p50_s'] * 1e3:.0f} ms, p99 {f['latency_p99_s'] * 1e3:.0f} ms"

@@ -56,6 +56,8 @@ def _table(reports, truths, rows: int, elapsed: float, published: int, loops: in
             f"{loop_id:10s} {true:>14s} {r.fs_pct:6.1f}/{r.fd_pct:5.1f}  {err:7.2f} {r.method:>9s} "
             f"{period}  {status}  ({t.disturbance or 'noise-free'})"
         )
+    if len(truths) > rows:
+        lines.append(f"showing {rows} of {len(truths)} loops (--rows to show more); the summary covers them all")
     return "\n".join(lines)
 
 

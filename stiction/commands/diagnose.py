@@ -9,25 +9,20 @@ and the gain in fit is measured (``ident.diagnose``).  ``--json`` prints one obj
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from ident.report import MAX_SAMPLES, MIN_SAMPLES
 from schemas.errors import StictionError
+from stiction.commands import exports
 
 NONE_NAMED = "none: the canonical loop explains the data within its noise"
 
 
+FIELDS = ("op", "pv", "t", "sp", "mv", "mode")
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("paths", nargs="+", type=Path, metavar="PATH", help="CSV (or parquet) historian exports")
-    p.add_argument("--json", action="store_true", help="one JSON object per file (JSON Lines)")
-    p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
-    for field in ("op", "pv", "t", "sp", "mv"):
-        p.add_argument(
-            f"--{field}", dest=f"col_{field}", metavar="COLUMN", help=f"the file's name of the {field} column"
-        )
+    exports.add_arguments(p, FIELDS)
     p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
-    p.add_argument("--last", type=int, metavar="N", help=f"diagnose the last N samples (default: up to {MAX_SAMPLES})")
     p.add_argument("--max-causes", type=int, default=4, help="most causes named per loop (default 4)")
 
 
@@ -64,25 +59,18 @@ def _params(cause: str) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agent.historian import read_export
-    from ident.report import diagnose_loop
+    from ident.report import MIN_SAMPLES, diagnose_loop
 
-    columns = {f: getattr(args, f"col_{f}") for f in ("op", "pv", "t", "sp", "mv") if getattr(args, f"col_{f}")}
-    if args.last is not None and args.last < MIN_SAMPLES:
-        raise StictionError(f"--last {args.last}: need at least {MIN_SAMPLES} samples")
     if args.max_causes < 0:
         raise StictionError(f"--max-causes {args.max_causes}: expected 0 or more")
-    failed = 0
-    for path in args.paths:
+    failed: list[str] = []
+    for path, export in exports.windows(args, "diagnose", FIELDS, MIN_SAMPLES, failed):
         try:
-            export = read_export(path, args.ts, columns)
             report, record, d = diagnose_loop(
-                path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, args.last, args.max_causes
+                path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, None, args.max_causes
             )
         except StictionError as e:  # one bad file never stops the others
-            message = str(e) if str(path) in str(e) else f"{path}: {e}"
-            print(f"stiction diagnose: error: {message}", file=sys.stderr)
-            failed += 1
+            failed.append(exports.report_error("diagnose", path, e))
             continue
         print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)
         if args.plot:

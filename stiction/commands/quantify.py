@@ -3,20 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from schemas.errors import StictionError
+from stiction.commands import exports
+
+FIELDS = ("op", "pv", "t", "sp", "mode")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("paths", nargs="+", type=Path, metavar="PATH", help="CSV (or parquet) historian exports")
-    p.add_argument("--json", action="store_true", help="one JSON report per file (JSON Lines)")
-    p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
-    for field in ("op", "pv", "t", "sp"):
-        p.add_argument(
-            f"--{field}", dest=f"col_{field}", metavar="COLUMN", help=f"the file's name of the {field} column"
-        )
+    exports.add_arguments(p, FIELDS)
     p.add_argument("--models", type=Path, help="directory with the ONNX models and their cards")
     p.add_argument(
         "--process",
@@ -25,7 +21,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "read fs and fd from its slips where the data allow",
     )
     p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
-    p.add_argument("--last", type=int, metavar="N", help="quantify only the last N samples of each file")
 
 
 def _summary(path: str, r) -> str:
@@ -44,27 +39,25 @@ def _summary(path: str, r) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agent.historian import read_export
-    from agent.pipeline import Quantifier, Window
+    from agent.pipeline import MIN_SAMPLES, Quantifier, Window
 
     quantifier = Quantifier(args.models)
-    columns = {f: getattr(args, f"col_{f}") for f in ("op", "pv", "t", "sp") if getattr(args, f"col_{f}")}
-    failed = 0
-    for path in args.paths:
+    failed: list[str] = []
+    for path, export in exports.windows(args, "quantify", FIELDS, MIN_SAMPLES, failed):
         try:
-            export = read_export(path, args.ts, columns)
-            op, pv = export.op, export.pv
-            if args.last:
-                op, pv = op[-args.last :], pv[-args.last :]
             window = Window(
-                loop_id=path.stem, op=op, pv=pv, ts_s=export.ts_s, t_end_s=float(export.t_s[-1]), process=args.process
+                loop_id=path.stem,
+                op=export.op,
+                pv=export.pv,
+                ts_s=export.ts_s,
+                t_end_s=float(export.t_s[-1]),
+                process=args.process,
             )
             report, details = quantifier.quantify_with_details([window])[0]
             if export.warnings:
                 report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
         except StictionError as e:  # one bad file never stops the others
-            print(f"stiction quantify: error: {e}", file=sys.stderr)
-            failed += 1
+            failed.append(exports.report_error("quantify", path, e))
             continue
         print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)
         if args.plot:

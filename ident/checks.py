@@ -1,0 +1,148 @@
+"""Data problems a report names before it reads any friction: pure functions of one window.
+
+A check that ``blocks`` means no friction number can be read from the window (a sensor that
+does not move, a controller that does not drive the valve, a valve pinned at a limit most of
+the time); the others are warnings the numbers carry.  Thresholds are in samples and shares of
+the window, so they hold at any sample time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+FLAT_REL = 1e-6
+"""A signal whose range is below this share of its size (or of 1 %) does not move."""
+FROZEN_SHARE = 0.5
+"""PV repeating one value for this share of the window is frozen."""
+MIN_DISTINCT_PV = 4
+PINNED_WARN_SHARE = 0.2
+PINNED_BLOCK_SHARE = 0.5
+PINNED_RUN = 5
+"""Samples in a row at the window's OP extreme that count as resting on a limit."""
+HELD_OP_SHARE = 0.9
+"""OP unchanged from one sample to the next on this share of the window: manual or held."""
+
+
+@dataclass(frozen=True)
+class Check:
+    name: str
+    blocks: bool
+    message: str
+
+
+def flat(x: np.ndarray) -> bool:
+    """Whether a signal moves no more than its own rounding (a constant 3.5e-44 is a dead sensor)."""
+    return float(np.ptp(x)) <= FLAT_REL * max(1.0, float(np.max(np.abs(x))))
+
+
+def _longest_run(x: np.ndarray) -> tuple[int, int]:
+    """(length, start) of the longest stretch of exactly repeated values."""
+    change = np.flatnonzero(np.diff(x) != 0) + 1
+    edges = np.concatenate([[0], change, [x.size]])
+    lengths = np.diff(edges)
+    k = int(np.argmax(lengths))
+    return int(lengths[k]), int(edges[k])
+
+
+def _share_in_runs(mask: np.ndarray, min_run: int) -> float:
+    """Share of samples where ``mask`` holds in runs of at least ``min_run``."""
+    padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
+    d = np.diff(padded)
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    lengths = ends - starts
+    return float(lengths[lengths >= min_run].sum()) / mask.size
+
+
+def data_checks(op: np.ndarray, pv: np.ndarray) -> list[Check]:
+    """Every data problem of the window, the blocking ones first."""
+    op, pv = np.asarray(op, float), np.asarray(pv, float)
+    n = pv.size
+    out: list[Check] = []
+    if flat(pv):
+        out.append(
+            Check(
+                "flat_pv",
+                True,
+                f"PV does not move (constant at {pv[0]:.4g} over {n} samples): a dead or disconnected sensor, "
+                "nothing to read",
+            )
+        )
+    else:
+        run, start = _longest_run(pv)
+        distinct = np.unique(pv).size
+        if run >= FROZEN_SHARE * n and run >= 50:
+            out.append(
+                Check(
+                    "frozen_pv",
+                    True,
+                    f"PV frozen at {pv[start]:.4g} for {run} of {n} samples (from sample {start}): "
+                    "a sensor or archive that stopped updating",
+                )
+            )
+        elif distinct < MIN_DISTINCT_PV:
+            out.append(
+                Check(
+                    "stepped_pv",
+                    True,
+                    f"PV takes only {distinct} distinct values: a stepped or on/off signal with no cycle shape to read",
+                )
+            )
+    if flat(op):
+        out.append(
+            Check(
+                "manual",
+                True,
+                f"OP does not move (constant at {op[0]:.4g} %): the controller is in manual or its output is "
+                "frozen, so it does not drive the valve",
+            )
+        )
+        return out
+    top, bottom = op == op.max(), op == op.min()
+    still = np.concatenate([[False], np.diff(op) == 0])
+    for at, value, where in ((top, op.max(), "upper"), (bottom, op.min(), "lower")):
+        share = _share_in_runs(at, PINNED_RUN)
+        moving_elsewhere = not at.all() and float(np.mean(still[~at])) < 0.5  # resting only at the limit
+        if share >= PINNED_WARN_SHARE and moving_elsewhere:
+            blocks = share >= PINNED_BLOCK_SHARE
+            out.append(
+                Check(
+                    "saturated_op",
+                    blocks,
+                    f"OP pinned at its {where} limit {value:.4g} % for {share:.0%} of the window: the valve "
+                    "saturates and the loop is out of control there",
+                )
+            )
+    held = float(np.mean(np.diff(op) == 0))
+    if held >= HELD_OP_SHARE:
+        out.append(
+            Check(
+                "held_op",
+                False,
+                f"OP unchanged between samples on {held:.0%} of the window: manual mode with operator steps, "
+                "or an archive that stores OP only when it changes",
+            )
+        )
+    return sorted(out, key=lambda c: not c.blocks)
+
+
+def impossible_friction(
+    s_pct: float, j_pct: float, s_se_pct: float, j_se_pct: float, op_range_pct: float
+) -> str | None:
+    """Why no valve can have this band S and jump J (% of span), or None: a band wider than OP
+    ever moved or than the span, a jump below zero or above the band (each beyond two standard
+    errors)."""
+    if not (np.isfinite(s_pct) and np.isfinite(j_pct)):
+        return None
+    s_se = s_se_pct if np.isfinite(s_se_pct) else 0.0
+    j_se = j_se_pct if np.isfinite(j_se_pct) else 0.0
+    if s_pct <= 0 or s_pct - 2 * s_se > min(op_range_pct, 100.0):
+        return f"the fit reads a band S of {s_pct:.3g} % where OP moved {op_range_pct:.3g} %: no valve slips so"
+    if j_pct + 2 * j_se < 0 or j_pct - 2 * j_se > s_pct + 2 * s_se:
+        return f"the fit reads a jump J of {j_pct:.3g} % with a band of {s_pct:.3g} %: no valve jumps so"
+    return None
+
+
+def blocking(checks: list[Check]) -> list[Check]:
+    return [c for c in checks if c.blocks]

@@ -1,0 +1,67 @@
+"""What ``quantify`` and ``diagnose`` share: the export flags, folders expanded, and each file
+read in windows with its errors kept to itself (one bad file never stops the others)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+from schemas.errors import StictionError
+
+DEFAULT_WINDOW = 3600
+"""Samples analysed per file by default: the last DEFAULT_WINDOW (``--last``/``--every`` to choose)."""
+
+
+def add_arguments(p: argparse.ArgumentParser, fields: tuple[str, ...]) -> None:
+    p.add_argument(
+        "paths", nargs="+", type=Path, metavar="PATH", help="historian exports (CSV or Parquet) or folders of them"
+    )
+    p.add_argument("--json", action="store_true", help="one JSON object per window (JSON Lines)")
+    p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
+    for field in fields:
+        p.add_argument(
+            f"--{field}", dest=f"col_{field}", metavar="COLUMN", help=f"the file's name of the {field} column"
+        )
+    p.add_argument(
+        "--last", type=int, metavar="N", help=f"analyse the last N samples of each file (default {DEFAULT_WINDOW})"
+    )
+    p.add_argument(
+        "--every",
+        type=int,
+        metavar="N",
+        help="one report per window of --last samples, a new window every N samples (default: the last window only)",
+    )
+
+
+def windows(
+    args: argparse.Namespace, command: str, fields: tuple[str, ...], min_samples: int, failed: list[str]
+) -> Iterator:
+    """(path, Export) for every window of every file; a file's error is printed as one line naming
+    it, appended to ``failed``, and the next file is read."""
+    from agent.historian import expand_paths, read_export, read_windows
+
+    columns = {f: getattr(args, f"col_{f}") for f in fields if getattr(args, f"col_{f}")}
+    for flag in ("last", "every"):
+        value = getattr(args, flag)
+        if value is not None and value < (min_samples if flag == "last" else 1):
+            need = min_samples if flag == "last" else 1
+            raise StictionError(f"--{flag} {value}: need at least {need} samples")
+    length = args.last or DEFAULT_WINDOW
+    for path in expand_paths(args.paths):
+        try:
+            if args.every:
+                for export in read_windows(path, length, args.every, args.ts, columns):
+                    yield path, export
+            else:
+                yield path, read_export(path, args.ts, columns, last=length)
+        except StictionError as e:
+            failed.append(report_error(command, path, e))
+
+
+def report_error(command: str, path: Path, error: Exception) -> str:
+    """Print one line naming the file and what was wrong; return it."""
+    message = str(error) if str(path) in str(error) else f"{path}: {error}"
+    print(f"stiction {command}: error: {message}", file=sys.stderr, flush=True)
+    return message
