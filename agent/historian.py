@@ -93,8 +93,9 @@ def read_export(
 def read_windows(
     path: Path | str, length: int, every: int, ts_s: float | None = None, columns: dict[str, str] | None = None
 ) -> Iterator[Export]:
-    """Windows of ``length`` samples, one ending every ``every`` samples from the first full one;
-    a file shorter than ``length`` gives one window of all its samples."""
+    """Windows of ``length`` samples, one ending every ``every`` samples from the first full one,
+    and a last one ending at the file's end; a file shorter than ``length`` gives one window of
+    all its samples."""
     if length < 1 or every < 1:
         raise InputError(f"window of {length} samples every {every}: both must be at least 1")
     reader = _Reader(path, ts_s, columns)
@@ -105,11 +106,10 @@ def read_windows(
         while tail.seen >= next_end:
             yield reader.export(tail.window(end=next_end), None)
             next_end += every
-    if tail.seen < length:
-        window = tail.window()
-        if window is None:
-            raise InputError(f"{reader.name}: header only, no samples")
-        yield reader.export(window, tail.seen)
+    if tail.seen == 0:
+        raise InputError(f"{reader.name}: header only, no samples")
+    if next_end == length or tail.seen > next_end - every:  # a short file; the newest samples
+        yield reader.export(tail.window(), tail.seen)
 
 
 @dataclass

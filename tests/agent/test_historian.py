@@ -100,3 +100,89 @@ def test_every_measured_plant_loop_reads_as_it_is():
     for f in files:
         e = read_export(f)
         assert e.op.size >= 100 and e.ts_s in (10.0, 60.0), f
+
+
+def _big(path, n):
+    t = np.arange(n) * 1.0
+    np.savetxt(path, np.c_[t, np.sin(t / 50), np.cos(t / 50)], fmt="%.4f", delimiter=",", header="t,op,pv", comments="")
+    return path
+
+
+def test_memory_follows_the_window_not_the_file(tmp_path, monkeypatch):
+    import tracemalloc
+
+    monkeypatch.setattr(historian, "BLOCK_ROWS", 20_000)
+    peaks = []
+    for n in (60_000, 240_000):
+        path = _big(tmp_path / f"big{n}.csv", n)
+        tracemalloc.start()
+        e = read_export(path, last=500)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+        assert e.op.size == 500 and e.first_row == n - 500 + 2 and e.t_s[-1] == n - 1
+        assert any(f"rows {n - 498}-{n + 1} of the file analysed (500 of {n} samples)" in w for w in e.warnings)
+    assert peaks[1] < 1.3 * peaks[0], peaks  # four times the file, about the same memory
+
+
+def test_windows_are_slices_of_the_whole_file(tmp_path, monkeypatch):
+    monkeypatch.setattr(historian, "BLOCK_ROWS", 333)  # windows straddle blocks
+    path = _big(tmp_path / "w.csv", 2000)
+    whole = read_export(path)
+    windows = list(historian.read_windows(path, length=700, every=450))
+    assert [w.first_row for w in windows] == [2, 452, 902, 1302]
+    for w in windows:
+        k = w.first_row - 2
+        np.testing.assert_array_equal(w.op, whole.op[k : k + 700])
+        np.testing.assert_array_equal(w.t_s, whole.t_s[k : k + 700])
+    short = list(historian.read_windows(path, length=5000, every=100))
+    assert len(short) == 1 and short[0].op.size == 2000
+
+
+@pytest.mark.parametrize(
+    ("text", "encoding"),
+    [
+        ("Zeit;OP;PV\n" + "".join(f"{k};{k},5;{2 * k},25\n" for k in range(12)), "utf-8"),
+        ("t\top\tpv\n" + "".join(f"{k}\t{k}.5\t{2 * k}.25\n" for k in range(12)), "utf-8"),
+        ("t|op|pv\n" + "".join(f"{k}|{k}.5|{2 * k}.25\n" for k in range(12)), "utf-8"),
+        ("t;op;pv;unit\n" + "".join(f"{k};{k},5;{2 * k},25;°C\n" for k in range(12)), "cp1252"),
+    ],
+    ids=["semicolon-decimal-comma", "tab", "pipe", "windows-1252"],
+)
+def test_separators_and_decimal_marks_are_read_from_the_content(tmp_path, text, encoding):
+    p = tmp_path / "x.csv"
+    p.write_bytes(text.encode(encoding))
+    e = read_export(p, ts_s=1.0, columns={"t": "Zeit"} if text.startswith("Zeit") else None)
+    np.testing.assert_allclose(e.op, np.arange(12) + 0.5)
+    np.testing.assert_allclose(e.pv, 2 * np.arange(12) + 0.25)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("t op pv\n0 1 2\n", "one column: expected columns separated by"),
+        ("0,1,2\n1,1,2\n", "the first row '0,1,2' is numbers: expected a header row"),
+        ("t,op,pv\n0,1,2\n1,,2\n", r"row 3, column 'op': '' is an empty field"),
+        ("t,op,pv\n0,1,2\n1,1,1e300\n", r"row 3, column 'pv': '1e300' is no percent of span"),
+        ("t,op,pv\nyesterday,1,2\n", r"row 2, column 't': 'yesterday' is neither seconds nor an ISO 8601 time"),
+    ],
+)
+def test_unreadable_layouts_are_named(tmp_path, text, message):
+    with pytest.raises(InputError, match=message):
+        read_export(_write(tmp_path, text))
+
+
+def test_blank_lines_are_skipped_and_rows_still_counted(tmp_path):
+    text = "t,op,pv\n0,1,2\n\n1,1,2\n2,x,2\n"
+    with pytest.raises(InputError, match="row 5, column 'op'"):
+        read_export(_write(tmp_path, text))
+    assert read_export(_write(tmp_path, "t,op,pv\n0,1,2\n1,1,2\n\n")).op.size == 2
+
+
+def test_parquet_is_read_by_content_whatever_its_name(tmp_path):
+    pa = pytest.importorskip("pyarrow")
+    import pyarrow.parquet as pq
+
+    table = pa.table({"t": np.arange(150.0) * 2, "OP": np.sin(np.arange(150.0)), "PV": np.cos(np.arange(150.0))})
+    pq.write_table(table, tmp_path / "export.dat")
+    e = read_export(tmp_path / "export.dat")
+    assert e.ts_s == 2.0 and e.op.size == 150 and e.pv[0] == 1.0
