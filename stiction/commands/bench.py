@@ -29,6 +29,7 @@ def _print_json(figures) -> None:
     """Every ``bench ... --json`` prints exactly one JSON object."""
     print(json.dumps(figures, default=_plain), flush=True)
 
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="bench", required=True, metavar="BENCH")
     s = sub.add_parser("sim", help="the training grid's time against the ODE reference")
@@ -149,17 +150,25 @@ def _diagnose(args) -> None:
             return
         first = ", ".join(f"{k} {v}" for k, v in sorted(s["first_named"].items(), key=lambda kv: -kv[1]))
         param = "-" if s["param_rel_err_median"] is None else f"{100 * s['param_rel_err_median']:.0f} %"
+        within = s["fs_fd_within_2se_share"]
+        cover = "-" if within is None else f"{100 * within:.0f} %"
         print(
             f"{c:22s} {100 * s['named_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
-            f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} {s['s_per_loop_median']:6.1f}   "
+            f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} "
+            f"{s['fs_fd_read_extended']:3d}/{s['n']:<3d} {cover:>6s} {s['s_per_loop_median']:6.1f}   "
             f"first named: {first}",
             flush=True,
         )
 
     if not quiet:
         print(f"diagnose on {args.loops} generated loops per cause (noise 1-4 % of PV RMS, OP/PV only)")
-        print(f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'s/loop':>6s}")
-        print(f"{'':22s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'(CPU)':>6s}")
+        print(
+            f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
+            f"{'in 2se':>6s} {'s/loop':>6s}"
+        )
+        print(
+            f"{'':22s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} {'(CPU)':>6s}"
+        )
     figures = bench_diagnose(args.loops, causes, args.workers, progress=row)
     if args.retrain:
 
