@@ -396,6 +396,11 @@ class _Reader:
         op = v["op"]
         if np.ptp(op) < 1.5 and op.min() >= 0 and op.max() <= 1.0 + 1e-9:
             notes.append("op lies within 0..1: if it is a fraction, not percent, scale it by 100")
+        elif op.min() < -5.0 or op.max() > 105.0:
+            notes.append(
+                f"op runs from {op.min():.4g} to {op.max():.4g}, outside 0-100: not percent of span? "
+                "S and J are read in OP's own units"
+            )
         if "mode" in v and np.ptp(v["mode"]) > 0:
             notes.append("the mode column changes within the file: part of it may be in manual (open loop)")
         if (rows_in_file is not None and n < rows_in_file) or block.first > 0:

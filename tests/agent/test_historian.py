@@ -87,6 +87,11 @@ def test_isolated_rounded_timestamps_are_read_as_evenly_sampled(tmp_path):
     assert any("3 timestamps" in w for w in e.warnings)
 
 
+def test_op_outside_percent_warns(tmp_path):
+    text = "t,op,pv\n" + "".join(f"{k},{2000 + 300 * np.sin(k):.1f},1\n" for k in range(12))
+    assert any("outside 0-100" in w for w in read_export(_write(tmp_path, text)).warnings)
+
+
 def test_fraction_op_and_mode_changes_warn(tmp_path):
     text = "t,op,pv,mode\n" + "".join(f"{k},{0.5 + 0.1 * np.sin(k):.3f},1,{int(k > 5)}\n" for k in range(12))
     warnings = " ".join(read_export(_write(tmp_path, text)).warnings)
