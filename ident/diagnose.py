@@ -324,7 +324,7 @@ def _refined(fitter: Fitter, model: Model, cause: str, current: Model) -> Model:
             break
         (x0, c0), (x1, c1), (x2, c2) = ((np.log(v), c) for v, _, c in points[k - 1 : k + 2])
         denom = (x1 - x0) * (c1 - c2) - (x1 - x2) * (c1 - c0)
-        if denom == 0:
+        if not (np.isfinite(denom) and denom != 0):  # a neighbour with no model (inf) bounds the search
             break
         x = x1 - 0.5 * ((x1 - x0) ** 2 * (c1 - c2) - (x1 - x2) ** 2 * (c1 - c0)) / denom
         if not (x0 < x < x2) or min(abs(x - x0), abs(x - x1), abs(x - x2)) < 0.01:
