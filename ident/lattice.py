@@ -8,6 +8,17 @@ MIN_STEPS = 3
 """A lattice must be coarse enough to show: the signal spans at least this many steps... and few enough values."""
 
 
+def _few_values(x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """The finite samples and their distinct values, or None for the values where there are
+    too few to show steps or too many (more than half the samples) to be stored in steps."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    values = np.unique(x)
+    if values.size < MIN_STEPS or values.size > 0.5 * x.size:
+        return x, None
+    return x, values
+
+
 def quantum(x: np.ndarray, tolerance: float = 0.02) -> float | None:
     """The step of the lattice every value of ``x`` sits on, or None (values on no common grid).
 
@@ -15,10 +26,8 @@ def quantum(x: np.ndarray, tolerance: float = 0.02) -> float | None:
     when (almost) every value is a whole number of such steps from the lowest value, and the
     signal takes far fewer distinct values than it has samples.
     """
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    values = np.unique(x)
-    if values.size < MIN_STEPS or values.size > 0.5 * x.size:
+    x, values = _few_values(x)
+    if values is None:
         return None
     gaps = np.diff(values)
     scale = max(float(np.max(np.abs(values))), 1e-12)
@@ -61,10 +70,8 @@ def resolution(x: np.ndarray) -> float | None:
     Wider than ``quantum``: values stored in steps that vary along the range (a flow computed
     from a quantised differential pressure, say) have a resolution but no single lattice.
     """
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    values = np.unique(x)
-    if values.size < MIN_STEPS or values.size > 0.5 * x.size:
+    _, values = _few_values(x)
+    if values is None:
         return None
     gaps = np.diff(values)
     gaps = gaps[gaps > 1e-3 * np.ptp(values)]  # near-duplicates: the export's decimal rounding

@@ -9,6 +9,7 @@ and the gain in fit is measured (``ident.diagnose``).  ``--json`` prints one obj
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 from schemas.errors import StictionError
@@ -58,6 +59,12 @@ def _params(cause: str) -> tuple[str, ...]:
     return CATALOGUE.get(cause, ())
 
 
+def _plot(png: Path, record, d, report) -> Path:
+    from stiction.plots import plot_diagnosis
+
+    return plot_diagnosis(png, record, d, report)
+
+
 def run(args: argparse.Namespace) -> int:
     from ident.report import MIN_SAMPLES, diagnose_loop
 
@@ -72,12 +79,7 @@ def run(args: argparse.Namespace) -> int:
         except StictionError as e:  # one bad file never stops the others
             failed.append(exports.report_error("diagnose", path, e))
             continue
-        print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)
-        if args.plot:
-            from stiction.plots import plot_diagnosis
-
-            args.plot.mkdir(parents=True, exist_ok=True)
-            png = plot_diagnosis(args.plot / f"{path.stem}.png", record, d, report)
-            if not args.json:
-                print(f"  plot: {png}")
+        exports.show(
+            args, path, export, report, _summary(str(path), report), partial(_plot, record=record, d=d, report=report)
+        )
     return 2 if failed else 0

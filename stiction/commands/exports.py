@@ -65,3 +65,15 @@ def report_error(command: str, path: Path, error: Exception) -> str:
     message = str(error) if str(path) in str(error) else f"{path}: {error}"
     print(f"stiction {command}: error: {message}", file=sys.stderr, flush=True)
     return message
+
+
+def show(args: argparse.Namespace, path: Path, export, report, summary: str, plot) -> None:
+    """Print one window's report (JSON line or summary) and, with ``--plot``, write its PNG
+    through ``plot(png_path) -> Path`` (named by the window's last row with ``--every``)."""
+    print(report.model_dump_json() if args.json else summary, flush=True)
+    if args.plot:
+        args.plot.mkdir(parents=True, exist_ok=True)
+        name = f"{path.stem}-row{export.last_row}" if args.every else path.stem
+        png = plot(args.plot / f"{name}.png")
+        if not args.json:
+            print(f"  plot: {png}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 from schemas.errors import StictionError
@@ -38,6 +39,12 @@ def _summary(path: str, r) -> str:
     return "\n".join(lines)
 
 
+def _plot(png: Path, window, report, details) -> Path:
+    from stiction.plots import plot_loop
+
+    return plot_loop(png, window, report, details)
+
+
 def run(args: argparse.Namespace) -> int:
     from agent.pipeline import MIN_SAMPLES, Quantifier, Window
 
@@ -59,12 +66,12 @@ def run(args: argparse.Namespace) -> int:
         except StictionError as e:  # one bad file never stops the others
             failed.append(exports.report_error("quantify", path, e))
             continue
-        print(report.model_dump_json() if args.json else _summary(str(path), report), flush=True)
-        if args.plot:
-            from stiction.plots import plot_loop
-
-            args.plot.mkdir(parents=True, exist_ok=True)
-            png = plot_loop(args.plot / f"{path.stem}.png", window, report, details)
-            if not args.json:
-                print(f"  plot: {png}")
+        exports.show(
+            args,
+            path,
+            export,
+            report,
+            _summary(str(path), report),
+            partial(_plot, window=window, report=report, details=details),
+        )
     return 2 if failed else 0
