@@ -8,7 +8,7 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-from schemas.errors import StictionError
+from schemas.errors import InputError, StictionError
 
 DEFAULT_WINDOW = 3600
 """Samples analysed per file by default: the last DEFAULT_WINDOW (``--last``/``--every`` to choose)."""
@@ -51,11 +51,15 @@ def windows(
     length = args.last or DEFAULT_WINDOW
     for path in expand_paths(args.paths):
         try:
-            if args.every:
-                for export in read_windows(path, length, args.every, args.ts, columns):
-                    yield path, export
-            else:
-                yield path, read_export(path, args.ts, columns, last=length)
+            found = (
+                read_windows(path, length, args.every, args.ts, columns)
+                if args.every
+                else [read_export(path, args.ts, columns, last=length)]
+            )
+            for export in found:
+                if export.op.size < min_samples:
+                    raise InputError(f"{path}: {export.op.size} samples, need at least {min_samples}")
+                yield path, export
         except StictionError as e:
             failed.append(report_error(command, path, e))
 
