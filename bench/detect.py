@@ -1,0 +1,126 @@
+"""``stiction bench detect``: is it the valve?  The detector beside the published tests, side by side.
+
+Two sets, same run:
+
+- simulated plant-like loops of every class (``sim.plant_loops``, a seed the shipped detector
+  was not trained on): the share of each class called stiction by each method;
+- the labelled measured windows (``loops.json`` beside the CSVs): accuracy against the data
+  authors' labels, the detector cross-validated by tag (each tag's windows judged by a
+  detector trained without any window of that tag).
+
+Methods: Horch's cross-correlation test (stiction where it reads an odd CCF), Choudhury's
+bicoherence test (nonlinear and oscillating), He et al.'s shape test (SI of OP > 0.6), and
+the project's verdict (data checks, then the detector's stiction probability >= 0.5).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+METHODS = ("ours", "horch", "bicoherence", "shape")
+SIM_TRAIN_SEED = 7
+
+
+def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
+    from detect.shape import STICTION as SHAPE_STICTION
+
+    return {
+        "ours": bool(not blocked and p_stiction >= 0.5),
+        "horch": ev.horch.verdict == "stiction",
+        "bicoherence": bool(ev.bicoherence.nonlinear and ev.oscillation.oscillating),
+        "shape": bool(np.isfinite(ev.shape_op) and ev.shape_op > SHAPE_STICTION),
+    }
+
+
+def _blocked(op, pv) -> bool:
+    from ident.checks import blocking, data_checks
+
+    return bool(blocking(data_checks(op, pv)))
+
+
+def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, train_per_class: int = 60) -> dict:
+    from agent.historian import expand_paths, read_export
+    from bench.measured import labels
+    from detect import training
+    from detect.features import evidence
+    from sim.plant_loops import CLASSES, plant_loops, simulate_plant
+
+    t0 = time.perf_counter()
+    x_train, causes_train = training.simulated_set(train_per_class, SIM_TRAIN_SEED)
+    detector = training.train(x_train, causes_train)
+    out: dict = {"simulated": {}, "measured": {}}
+
+    loops = plant_loops(n_per_class, seed)
+    t1 = time.perf_counter()
+    records = simulate_plant(loops)
+    evs = [evidence(op, pv, ts_s, sp) for op, pv, sp, ts_s in records]
+    feature_s = (time.perf_counter() - t1) / len(loops)
+    p = detector.stiction_probability(np.nan_to_num(np.array([e.vector for e in evs])))
+    for cls in CLASSES:
+        idx = [i for i, loop in enumerate(loops) if loop.cause == cls]
+        called = [_calls(evs[i], p[i], _blocked(records[i][0], records[i][1])) for i in idx]
+        out["simulated"][cls] = {m: float(np.mean([c[m] for c in called])) for m in METHODS} | {"n": len(idx)}
+    out["simulated_seconds_per_loop"] = feature_s
+
+    files = [f for f in expand_paths(measured) if f.suffix.lower() in (".csv", ".parquet")]
+    known = {}
+    for m in measured:
+        known.update(labels(m if m.is_dir() else m.parent))
+    rows = []
+    for f in files:
+        meta = known.get(f.stem)
+        if not meta:
+            continue
+        e = read_export(f)
+        rows.append(
+            (meta["tag"], meta["label"] == "stiction", evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
+        )
+    if rows:
+        tags = [r[0] for r in rows]
+        xm = np.nan_to_num(np.array([r[2].vector for r in rows]))
+        sticky = [r[1] for r in rows]
+        p_cv = np.zeros(len(rows))
+        for tag in sorted(set(tags)):
+            keep = [i for i, t in enumerate(tags) if t != tag]
+            held = [i for i, t in enumerate(tags) if t == tag]
+            d = training.train(x_train, causes_train, xm[keep], [sticky[i] for i in keep], [tags[i] for i in keep])
+            p_cv[held] = d.stiction_probability(xm[held])
+        calls = [_calls(r[2], p_cv[i], r[3]) for i, r in enumerate(rows)]
+        p_sim = detector.stiction_probability(xm)
+        calls_sim = [_calls(r[2], p_sim[i], r[3])["ours"] for i, r in enumerate(rows)]
+        truth = np.array(sticky)
+        out["measured"] = {
+            "windows": len(rows),
+            "tags": len(set(tags)),
+            "sticky": int(truth.sum()),
+            "bad_data": int(sum(r[3] for r in rows)),
+            "accuracy": {m: float(np.mean(np.array([c[m] for c in calls]) == truth)) for m in METHODS},
+            "recall": {m: float(np.mean(np.array([c[m] for c in calls])[truth])) for m in METHODS},
+            "specificity": {m: float(np.mean(~np.array([c[m] for c in calls])[~truth])) for m in METHODS},
+            "accuracy_simulation_only": float(np.mean(np.array(calls_sim) == truth)),
+        }
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def print_table(fig: dict) -> None:
+    print("simulated plant-like loops: share called stiction (want 100 % for stiction, 0 % for the others)")
+    print(f"{'class':22s}" + "".join(f"{m:>13s}" for m in METHODS) + "      n")
+    for cls, row in fig["simulated"].items():
+        print(f"{cls:22s}" + "".join(f"{100 * row[m]:12.0f}%" for m in METHODS) + f"{row['n']:7d}")
+    others = [r for c, r in fig["simulated"].items() if c != "stiction"]
+    if others:
+        print(f"{'not called (others)':22s}" + "".join(
+            f"{100 * (1 - np.mean([r[m] for r in others])):12.0f}%" for m in METHODS))  # fmt: skip
+    print(f"evidence per window: {1000 * fig['simulated_seconds_per_loop']:.1f} ms")
+    m = fig.get("measured")
+    if m:
+        print(f"measured windows ({m['windows']} in {m['tags']} tags, {m['sticky']} labelled sticky, "
+              f"{m['bad_data']} with blocking data problems), ours cross-validated by tag:")  # fmt: skip
+        for k in ("accuracy", "recall", "specificity"):
+            print(f"{k:22s}" + "".join(f"{100 * m[k][x]:12.0f}%" for x in METHODS))
+        print(f"ours trained on simulation only: accuracy {100 * m['accuracy_simulation_only']:.0f} %")
+    print(f"{fig['seconds']:.0f} s")

@@ -1,0 +1,79 @@
+"""Choudhury's bicoherence test for a nonlinear loop (Choudhury, Shah & Thornhill 2004,
+"Diagnosis of poor control-loop performance using higher-order statistics", Automatica 40).
+
+A linear loop driven by Gaussian noise has a flat, insignificant squared bicoherence; a
+nonlinearity such as stiction couples frequencies.  ``NGI`` (non-Gaussianity index: mean
+squared bicoherence above its significance level) and ``NLI`` (nonlinearity index: how far
+the peak stands out) decide: nonlinear where ``NGI > 0.001`` and ``NLI > 0.01``.  A
+nonlinear oscillating loop is then read as sticky, and the apparent band S is the width of an
+ellipse fitted to the PV-OP plot (Choudhury, Thornhill & Shah 2005) along OP.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from detect.oscillation import detrend
+
+NGI_MIN = 0.001
+NLI_MIN = 0.01
+CHI2_2DOF_95 = 5.991
+
+
+@dataclass(frozen=True)
+class Bicoherence:
+    ngi: float
+    nli: float
+    nonlinear: bool
+
+
+def squared_bicoherence(x: np.ndarray, segment: int) -> tuple[np.ndarray, int]:
+    """[F, F] squared bicoherence over the principal domain (others nan) and the segment count."""
+    x = detrend(np.asarray(x, float))
+    x = x / (np.std(x) or 1.0)
+    step = segment // 2
+    starts = range(0, x.size - segment + 1, step)
+    window = np.hanning(segment)
+    spectra = np.array([np.fft.fft(window * (x[s : s + segment] - x[s : s + segment].mean())) for s in starts])
+    k = len(spectra)
+    f = segment // 2
+    i1, i2 = np.meshgrid(np.arange(f), np.arange(f), indexing="ij")
+    domain = (i2 <= i1) & (i1 + i2 < f) & (i2 > 0)
+    x1, x2, x12 = spectra[:, i1], spectra[:, i2], spectra[:, (i1 + i2) % segment]
+    num = np.abs(np.sum(x1 * x2 * np.conj(x12), axis=0)) ** 2
+    den = np.sum(np.abs(x1 * x2) ** 2, axis=0) * np.sum(np.abs(x12) ** 2, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        b2 = np.where(domain & (den > 0), num / den, np.nan)
+    return b2, k
+
+
+def test(x: np.ndarray) -> Bicoherence:
+    """NGI and NLI of one signal (the control error or PV)."""
+    n = np.asarray(x).size
+    segment = int(2 ** np.clip(np.floor(np.log2(n / 4)), 5, 7))  # 32..128 samples, at least ~7 segments
+    b2, k = squared_bicoherence(x, segment)
+    values = b2[np.isfinite(b2)]
+    if values.size == 0 or k < 2:
+        return Bicoherence(float("nan"), float("nan"), False)
+    threshold = CHI2_2DOF_95 / (2 * k)
+    significant = values[values > threshold]
+    ngi = float(significant.mean() - threshold) if significant.size else float(-threshold)
+    nli = float(abs(values.max() - (values.mean() + 2 * values.std())))
+    return Bicoherence(ngi, nli, bool(ngi > NGI_MIN and nli > NLI_MIN))
+
+
+def ellipse_band_pct(op: np.ndarray, pv: np.ndarray) -> float:
+    """Apparent band S: the width along OP of the ellipse through the PV-OP plot's covariance, % of span.
+
+    The ellipse ``[op, pv] C^-1 [op, pv]' = 2`` (the one a sinusoid traces) meets the OP axis
+    at ``pv = 0``: S is the distance between those two points.
+    """
+    d = np.stack([detrend(np.asarray(op, float)), detrend(np.asarray(pv, float))])
+    c = np.cov(d)
+    try:
+        inv = np.linalg.inv(c)
+    except np.linalg.LinAlgError:
+        return float("nan")
+    return float(2 * np.sqrt(2 / inv[0, 0])) if inv[0, 0] > 0 else float("nan")

@@ -1,0 +1,125 @@
+"""Oscillation detection for any sample time: the regularity of zero crossings.
+
+Thornhill, Huang & Zhang (2003), "Detection of multiple oscillations in control loops",
+J. Process Control 13: the intervals between zero crossings of the autocorrelation
+function of an oscillating signal are regular; ``r = mean(T) / (3 std(T))`` over the
+period estimates ``T`` from successive intervals, and ``r > 1`` is an oscillation.
+
+A slow limit cycle with only two or three cycles in the window (flow loops recorded every
+10 s) leaves too few ACF crossings beyond the lags the ACF can still see, so the same
+statistic is also taken on the zero crossings of the signal itself (with hysteresis,
+after removing its linear trend): the window oscillates if either is regular.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+REGULAR = 1.5
+"""Thornhill's threshold is r > 1; on 100 windows each of random walks, AR(1) and smoothed white noise
+(751 samples) it called 6-20 % of them oscillating, 1.5 calls 5-9 % and still finds 96 % of noisy sines."""
+MIN_CYCLES = 2.0
+"""Fewer cycles than this in the window are not an oscillation one can read."""
+HYSTERESIS_STD = 0.3
+ACF_PEAK = 0.2
+"""The ACF at one period must come back at least this high (biased estimate: a clean slow cycle reaches 1 - P/N)."""
+FEW_INTERVALS = 10
+FEW_PENALTY = 2.0
+"""With fewer half periods than FEW_INTERVALS the signal's crossings must be this much more regular."""
+MAX_LAG_SHARE = 0.75
+"""The ACF is read up to this share of the window; beyond it too few products remain."""
+
+
+@dataclass(frozen=True)
+class Oscillation:
+    oscillating: bool
+    period_s: float | None
+    regularity: float
+    """Thornhill's r (the larger of the ACF's and the signal's); > 1 regular."""
+    cycles: float
+    """Cycles of the period in the window."""
+    amplitude_pct: float
+    """Half the median peak-to-peak swing per cycle of the detrended signal, % of span."""
+
+
+def detrend(x: np.ndarray) -> np.ndarray:
+    t = np.arange(x.size, dtype=float)
+    slope, intercept = np.polyfit(t, x, 1)
+    return x - (slope * t + intercept)
+
+
+def _crossings(x: np.ndarray, hysteresis: float) -> np.ndarray:
+    """Indices where ``x`` passes from below ``-h`` to above ``+h`` or back, at its zero crossing."""
+    state = 0
+    out = []
+    for k, v in enumerate(x):
+        s = 1 if v > hysteresis else -1 if v < -hysteresis else 0
+        if s and s != state:
+            if state:
+                j = k
+                while j > 0 and np.sign(x[j - 1]) == s:  # back to where it crossed zero
+                    j -= 1
+                out.append(j)
+            state = s
+    return np.asarray(out, dtype=int)
+
+
+def _regularity(intervals: np.ndarray) -> tuple[float, float]:
+    """(r, period in samples) from intervals between successive zero crossings (half periods)."""
+    if intervals.size < 3:
+        return 0.0, float("nan")
+    periods = intervals[1:] + intervals[:-1]  # each pair of half periods is one period
+    sd = float(np.std(periods))
+    mean = float(np.mean(periods))
+    return (mean / (3 * sd) if sd > 0 else np.inf), mean
+
+
+def _peak_near(r: np.ndarray, lag: float) -> float:
+    """Highest ACF value within a quarter period of ``lag``."""
+    lo, hi = int(lag * 0.75), min(int(lag * 1.25) + 1, r.size)
+    return float(r[lo:hi].max()) if hi > lo else 0.0
+
+
+def acf(x: np.ndarray, max_lag: int) -> np.ndarray:
+    x = x - x.mean()
+    n = x.size
+    size = 1 << int(np.ceil(np.log2(2 * n)))
+    spectrum = np.fft.rfft(x, size)
+    c = np.fft.irfft(spectrum * np.conj(spectrum), size)[: max_lag + 1]
+    return c / c[0] if c[0] > 0 else np.zeros(max_lag + 1)
+
+
+def detect(x: np.ndarray, ts_s: float = 1.0) -> Oscillation:
+    """Whether one signal (PV or the control error, % of span) oscillates, its period and regularity."""
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    y = detrend(x)
+    sd = float(np.std(y))
+    if not sd > 0:
+        return Oscillation(False, None, 0.0, 0.0, 0.0)
+    r_acf = acf(y, int(MAX_LAG_SHARE * n))
+    zc = _crossings(r_acf, 2.0 / np.sqrt(n))  # the ACF's own estimation noise is about 1/sqrt(n)
+    r1, p1 = _regularity(np.diff(zc).astype(float)) if zc.size >= 4 else (0.0, float("nan"))
+    if np.isfinite(p1) and _peak_near(r_acf, p1) < ACF_PEAK:
+        r1 = 0.0  # regular crossings of an ACF that never comes back: coloured noise, not a cycle
+    # the signal's own crossings, lightly smoothed so that noise does not cross
+    width = max(1, min(n // 50, 5))
+    smooth = np.convolve(y, np.ones(width) / width, mode="same") if width > 1 else y
+    sc = _crossings(smooth, HYSTERESIS_STD * sd)
+    r2, p2 = _regularity(np.diff(sc).astype(float))
+    if sc.size - 1 < FEW_INTERVALS:
+        r2 /= FEW_PENALTY  # a handful of half periods is regular by chance more often
+    r, period = (r1, p1) if r1 >= r2 else (r2, p2)
+    if not np.isfinite(period):
+        return Oscillation(False, None, float(max(r1, r2)), 0.0, 0.0)
+    cycles = n / period
+    amplitude = _amplitude(y, sc) if sc.size >= 3 else float(np.ptp(y)) / 2
+    oscillating = bool(r > REGULAR and cycles >= MIN_CYCLES)
+    return Oscillation(oscillating, float(period * ts_s), float(r), float(cycles), amplitude)
+
+
+def _amplitude(y: np.ndarray, crossings: np.ndarray) -> float:
+    swings = [float(np.max(np.abs(y[a:b]))) for a, b in zip(crossings[:-1], crossings[1:], strict=True) if b > a]
+    return float(np.median(swings)) if swings else float(np.ptp(y)) / 2

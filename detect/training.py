@@ -1,0 +1,52 @@
+"""Training sets for the detector: simulated plant-like loops of every class, the thesis's own
+sticky loops, and (optionally) labelled measured windows given as feature vectors."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from detect.features import evidence
+from detect.verdict import Detector, fit_logistic
+from sim.grid import random_loops
+from sim.loop import simulate
+from sim.plant_loops import CLASSES, plant_loops, simulate_plant
+
+OTHERS = tuple(c for c in CLASSES if c != "stiction")
+MEASURED_WEIGHT = 5.0
+"""Weight of one measured tag (split over its windows) against one simulated loop."""
+
+
+def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str]]:
+    """Feature vectors and causes of plant-like loops and of as many canonical (thesis) sticky loops."""
+    loops = plant_loops(n_per_class, seed)
+    x = [evidence(op, pv, ts_s, sp).vector for op, pv, sp, ts_s in simulate_plant(loops)]
+    causes = [loop.cause for loop in loops]
+    thesis = simulate(random_loops(n_per_class, seed + 1)).kept()
+    for i in range(thesis.op.shape[0]):
+        x.append(evidence(thesis.op[i], thesis.pv[i], 1.0, thesis.sp[i]).vector)
+        causes.append("stiction")
+    return np.nan_to_num(np.array(x)), causes
+
+
+def train(
+    x: np.ndarray,
+    causes: list[str],
+    measured_x: np.ndarray | None = None,
+    measured_sticky: list[bool] | None = None,
+    measured_tags: list[str] | None = None,
+    trained_on: str = "",
+) -> Detector:
+    """The stiction model on everything given; the cause model on the simulated look-alikes."""
+    labels = ["stiction" if c == "stiction" else "other" for c in causes]
+    weights = np.ones(len(labels))
+    features = x
+    if measured_x is not None and len(measured_x):
+        tags = list(measured_tags or range(len(measured_x)))
+        count = {t: tags.count(t) for t in tags}
+        features = np.vstack([x, np.nan_to_num(measured_x)])
+        labels += ["stiction" if s else "other" for s in measured_sticky]
+        weights = np.concatenate([weights, [MEASURED_WEIGHT / count[t] for t in tags]])
+    stiction = fit_logistic(features, labels, ("other", "stiction"), weights)
+    others = [i for i, c in enumerate(causes) if c != "stiction"]
+    cause = fit_logistic(x[others], [causes[i] for i in others], OTHERS)
+    return Detector(stiction, cause, trained_on)

@@ -1,0 +1,146 @@
+"""What the loop is doing: a verdict from the window's evidence, weighed by a detector trained on
+simulated plant-like loops (``sim.plant_loops``) and on labelled measured windows.
+
+Two logistic models over ``detect.features.NAMES``: the stiction probability (stiction
+against every look-alike), and, for a loop that oscillates without stiction, which
+look-alike it most resembles.  The weights are a small JSON file shipped beside the other
+models, with what they were trained on.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import minimize
+
+from detect.features import NAMES, Evidence
+
+STICTION_AT = 0.5
+"""Stiction probability from which the verdict is ``stiction``."""
+L2 = 1e-2
+
+
+@dataclass(frozen=True)
+class Logistic:
+    """Softmax regression on standardised features; two classes is the binary logistic model."""
+
+    classes: tuple[str, ...]
+    mean: np.ndarray  # [F]
+    scale: np.ndarray  # [F]
+    weights: np.ndarray  # [F, C]
+    bias: np.ndarray  # [C]
+
+    def probabilities(self, x: np.ndarray) -> np.ndarray:
+        """[N, F] -> [N, C]."""
+        z = ((np.atleast_2d(x) - self.mean) / self.scale) @ self.weights + self.bias
+        z -= z.max(axis=1, keepdims=True)
+        e = np.exp(z)
+        return e / e.sum(axis=1, keepdims=True)
+
+    def to_dict(self) -> dict:
+        return {
+            "classes": list(self.classes),
+            "mean": self.mean.tolist(),
+            "scale": self.scale.tolist(),
+            "weights": self.weights.tolist(),
+            "bias": self.bias.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Logistic:
+        return cls(
+            tuple(d["classes"]),
+            np.asarray(d["mean"], float),
+            np.asarray(d["scale"], float),
+            np.asarray(d["weights"], float),
+            np.asarray(d["bias"], float),
+        )
+
+
+def fit_logistic(
+    x: np.ndarray, labels: list[str], classes: tuple[str, ...], weights: np.ndarray | None = None, l2: float = L2
+) -> Logistic:
+    """Maximum (penalised) likelihood softmax regression; ``weights`` per sample (default 1)."""
+    x = np.asarray(x, float)
+    mean, scale = x.mean(axis=0), x.std(axis=0) + 1e-9
+    z = (x - mean) / scale
+    y = np.array([classes.index(label) for label in labels])
+    n, f = z.shape
+    c = len(classes)
+    w_sample = np.ones(n) if weights is None else np.asarray(weights, float)
+    onehot = np.eye(c)[y]
+
+    def loss(theta):
+        w, b = theta[: f * c].reshape(f, c), theta[f * c :]
+        logits = z @ w + b
+        logits -= logits.max(axis=1, keepdims=True)
+        logp = logits - np.log(np.exp(logits).sum(axis=1, keepdims=True))
+        p = np.exp(logp)
+        total = w_sample.sum()
+        value = -np.sum(w_sample * np.sum(onehot * logp, axis=1)) / total + l2 * np.sum(w * w)
+        g = (w_sample[:, None] * (p - onehot)) / total
+        return value, np.concatenate([(z.T @ g + 2 * l2 * w).ravel(), g.sum(axis=0)])
+
+    result = minimize(loss, np.zeros(f * c + c), jac=True, method="L-BFGS-B")
+    theta = result.x
+    return Logistic(classes, mean, scale, theta[: f * c].reshape(f, c), theta[f * c :])
+
+
+@dataclass(frozen=True)
+class Detector:
+    stiction: Logistic
+    """Classes ("other", "stiction")."""
+    cause: Logistic
+    """The look-alikes of ``sim.plant_loops.CLASSES`` other than stiction."""
+    trained_on: str
+
+    def stiction_probability(self, x: np.ndarray) -> np.ndarray:
+        return self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
+
+    def save(self, path: Path) -> None:
+        body = {
+            "features": list(NAMES),
+            "stiction": self.stiction.to_dict(),
+            "cause": self.cause.to_dict(),
+            "trained_on": self.trained_on,
+        }
+        Path(path).write_text(json.dumps(body, indent=1) + "\n")
+
+    @classmethod
+    def load(cls, path: Path) -> Detector:
+        body = json.loads(Path(path).read_text())
+        if tuple(body.get("features", ())) != NAMES:
+            raise ValueError(f"{path}: detector trained on features {body.get('features')}, this code computes {NAMES}")
+        return cls(Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"]), body["trained_on"])
+
+
+@dataclass(frozen=True)
+class Verdict:
+    verdict: str
+    """``stiction``, ``other_cause``, ``no_oscillation`` or ``bad_data``."""
+    stiction_probability: float | None
+    likely_cause: str | None
+    reason: str
+
+
+def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Verdict:
+    """The verdict for one window: data problems first, then the stiction probability, then whether it oscillates."""
+    if blocking_problems:
+        return Verdict("bad_data", None, None, "; ".join(blocking_problems))
+    x = ev.vector[None, :]
+    p = float(detector.stiction_probability(x)[0])
+    if p >= STICTION_AT:
+        return Verdict("stiction", p, "stiction", f"stiction probability {p:.2f}")
+    if not ev.oscillation.oscillating:
+        return Verdict(
+            "no_oscillation", p, None, f"no regular oscillation (regularity {ev.oscillation.regularity:.2f})"
+        )
+    probs = detector.cause.probabilities(x)[0]
+    ranked = [detector.cause.classes[k] for k in np.argsort(probs)[::-1]]
+    cause = next((c for c in ranked if c != "noise"), ranked[0])
+    return Verdict(
+        "other_cause", p, cause, f"oscillates (period {ev.oscillation.period_s:.4g} s) but not like a sticky valve"
+    )
