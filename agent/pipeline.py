@@ -20,10 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from agent.analysis import analyse
-from agent.predictor import load_models, model_version
+from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
+from detect.features import evidence
+from detect.training import DETECTOR_FILE
+from detect.verdict import Detector, Verdict, decide
 from ident.checks import blocking, data_checks, impossible_friction
 from schemas.errors import InputError
-from schemas.report import Estimate, StictionReport
+from schemas.report import Estimate, ProcessInfo, StictionReport
+from sim.process import LOOPS
 from sim.valve import band_and_jump_pct
 
 MIN_SAMPLES = 100
@@ -31,7 +35,6 @@ MIN_SAMPLES = 100
 PHYSICAL_MAX_SE_PCT = 0.25
 SEGMENTED_MAX_SE_PCT = 0.5
 """Trust for the segmented (noisy-window) reading; chosen on 200 random loops of seed 12345, not the holdout."""
-REGULARITY_OSCILLATING = 0.3
 MAX_SLIPS_PER_PERIOD = 12  # more is noise read as slips (slow cycles may slip ~6 times a period)
 
 
@@ -46,6 +49,8 @@ class Window:
     t_end_s: float | None = None
     process: str | None = None
     """``"level"`` for the canonical level loop (its physical reading applies); None when unknown."""
+    sp: np.ndarray | None = None
+    """Setpoint, where recorded: the detector reads the control error, and setpoint moves."""
 
     def validate(self) -> None:
         op, pv = np.asarray(self.op), np.asarray(self.pv)
@@ -106,6 +111,8 @@ class Quantifier:
     def __init__(self, models_dir: Path | None = None):
         self.thesis, self.cycle = load_models(models_dir)
         self.model_version = model_version(self.thesis, self.cycle)
+        own = Path(models_dir) / DETECTOR_FILE if models_dir is not None else None
+        self.detector = Detector.load(own if own is not None and own.is_file() else DEFAULT_MODELS_DIR / DETECTOR_FILE)
 
     def quantify(self, windows: Sequence[Window], denoise: bool | None = None) -> list[StictionReport]:
         """Reports in the order of ``windows``; windows of equal length and sample time are batched."""
@@ -156,59 +163,96 @@ class Quantifier:
         )
         reports = []
         for i, w in enumerate(windows):
-            warnings = []
-            oscillating = bool(np.isfinite(a.regularity[i]) and a.regularity[i] > REGULARITY_OSCILLATING)
-            if not oscillating:
-                warnings.append("no clear oscillation (ACF peak below 0.3): the estimates assume a stiction cycle")
+            problems = data_checks(op[i], pv[i])
+            ev = evidence(op[i], pv[i], ts_s, None if w.sp is None else np.asarray(w.sp, float))
+            verdict = decide(self.detector, ev, [c.message for c in blocking(problems)])
+            if physical_ok[i] and verdict.verdict in ("other_cause", "no_oscillation"):
+                # the declared level loop's slips read fs and fd: the valve's own evidence outweighs the cycle's shape
+                verdict = Verdict("stiction", verdict.stiction_probability, "stiction", "the slips read fs and fd")
+            warnings = [c.message for c in problems]
             if not level[i]:
                 warnings.append("process not declared: the physical reading of the slips (level loop) is not used")
             if np.isfinite(ood[i]) and ood[i] > 1:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
-            problems = data_checks(op[i], pv[i])
-            warnings = [c.message for c in problems] + warnings
             candidates = [
                 ("physical", physical_ok[i], phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i]),
                 ("learned", cycle_ok[i], learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]),
                 ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
             ]
-            method, fs, fd, fs_se, fd_se = "none", np.nan, np.nan, np.nan, np.nan
-            shown = {}  # each method's block: null where it did not run, is impossible or the data are bad
-            for name, ok, *estimate in candidates:
-                why = _impossible(*estimate, float(np.ptp(op[i]))) if ok else None
-                if why and not blocking(problems):
-                    warnings.append(f"{name} estimate withheld: {why}")
-                shown[name] = estimate if ok and not why and not blocking(problems) else None
-                if shown[name] is not None and method == "none":
-                    method, fs, fd, fs_se, fd_se = name, *estimate
-            if blocking(problems):
+            method, estimate, shown, why_not = _choose(candidates, float(np.ptp(op[i])), verdict.verdict)
+            warnings += why_not
+            if verdict.verdict != "stiction" and verdict.verdict != "bad_data":
+                warnings.append(f"no friction numbers: {verdict.verdict.replace('_', ' ')} ({verdict.reason})")
+            elif verdict.verdict == "bad_data":
                 warnings.append("no estimate: the data cannot show a valve's friction (above)")
             elif method == "none":
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
-            fs, fd = _opt(fs), _opt(fd)
-            s_pct, j_pct = band_and_jump_pct(fs, fd) if fs is not None and fd is not None else (None, None)
             reports.append(
-                StictionReport(
-                    loop_id=w.loop_id,
-                    fs_pct=fs,
-                    fd_pct=fd,
-                    s_pct=_opt(s_pct) if s_pct is not None else None,
-                    j_pct=_opt(j_pct) if j_pct is not None else None,
-                    fs_se_pct=_opt(fs_se),
-                    fd_se_pct=_opt(fd_se),
-                    period_s=_opt(a.period_s[i]),
-                    denoised=bool(a.noisy[i]),
-                    method=method,
-                    thesis=_estimate(shown["thesis"]),
-                    physical=_estimate(shown["physical"]) if level[i] and shown["physical"] is not None else None,
-                    learned=_estimate(shown["learned"]),
-                    ood_score=_opt(ood[i]),
-                    explained=_opt(a.fit.explained[i]),
-                    oscillating=oscillating,
-                    warnings=warnings,
-                    model_version=self.model_version,
-                    t_end_s=w.t_end_s,
-                    n_samples=int(n_samples),
-                )
+                self._report(w, i, a, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
             )
         details = [Details(curves[i], a.fit.denoised[i]) for i in range(len(windows))]
         return list(zip(reports, details, strict=True))
+
+    def _report(self, w, i, a, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s):
+        """Assembly only: the numbers chosen above, as the report's fields."""
+        fs, fd, fs_se, fd_se = (_opt(v) for v in estimate)
+        s_pct = j_pct = s_se = j_se = None
+        if fs is not None and fd is not None:
+            s_pct, j_pct = (_opt(v) for v in band_and_jump_pct(fs, fd))
+            if fs_se is not None:
+                s_se = _opt(band_and_jump_pct(fs_se, 0.0)[0])
+                j_se = _opt(band_and_jump_pct(float(np.hypot(fs_se, fd_se or 0.0)), 0.0)[0])
+        period = a.period_s[i] if np.isfinite(a.period_s[i]) else (ev.oscillation.period_s or np.nan)
+        return StictionReport(
+            loop_id=w.loop_id,
+            verdict=verdict.verdict,
+            stiction_probability=verdict.stiction_probability,
+            likely_cause=verdict.likely_cause,
+            regularity=_opt(ev.oscillation.regularity),
+            checks=[c.name for c in problems],
+            process=_process(w, ts_s),
+            fs_pct=fs,
+            fd_pct=fd,
+            s_pct=s_pct,
+            j_pct=j_pct,
+            s_se_pct=s_se,
+            j_se_pct=j_se,
+            fs_se_pct=fs_se,
+            fd_se_pct=fd_se,
+            period_s=_opt(period),
+            denoised=bool(a.noisy[i]),
+            method=method,
+            thesis=_estimate(shown["thesis"]),
+            physical=_estimate(shown["physical"]) if level[i] and shown["physical"] is not None else None,
+            learned=_estimate(shown["learned"]),
+            ood_score=_opt(ood[i]),
+            explained=_opt(a.fit.explained[i]),
+            oscillating=ev.oscillation.oscillating,
+            warnings=warnings,
+            model_version=self.model_version,
+            t_end_s=w.t_end_s,
+            n_samples=int(len(w.op)),
+        )
+
+
+def _choose(candidates, op_range_pct: float, verdict: str):
+    """The first method whose estimate a valve can have: ``(method, (fs, fd, fs_se, fd_se), shown, warnings)``.
+
+    ``shown`` holds each method's block, None where it did not run or is impossible; every block
+    is None unless the verdict is stiction (no friction numbers for a loop without it)."""
+    method, chosen = "none", (np.nan, np.nan, np.nan, np.nan)
+    shown, warnings = {}, []
+    for name, ok, *estimate in candidates:
+        why = _impossible(*estimate, op_range_pct) if ok else None
+        if why and verdict == "stiction":
+            warnings.append(f"{name} estimate withheld: {why}")
+        shown[name] = estimate if ok and not why and verdict == "stiction" else None
+        if shown[name] is not None and method == "none":
+            method, chosen = name, tuple(estimate)
+    return method, chosen, shown, warnings
+
+
+def _process(w: Window, ts_s: float) -> ProcessInfo:
+    if w.process == "level":
+        return ProcessInfo(kind="integrating", source="declared", gain=LOOPS["level"].gain, sample_time_s=ts_s)
+    return ProcessInfo(kind="unknown", source="none", sample_time_s=ts_s)

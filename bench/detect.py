@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 METHODS = ("ours", "horch", "bicoherence", "shape")
-SIM_TRAIN_SEED = 7
+from detect.training import SIM_SEED as SIM_TRAIN_SEED
 
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:

@@ -12,16 +12,21 @@ from sim.loop import simulate
 from sim.plant_loops import CLASSES, plant_loops, simulate_plant
 
 OTHERS = tuple(c for c in CLASSES if c != "stiction")
+DETECTOR_FILE = "detector.json"
+SIM_SEED = 7
+"""Offset of the detector's simulated training seed; ``bench detect`` evaluates on other seeds."""
 MEASURED_WEIGHT = 5.0
 """Weight of one measured tag (split over its windows) against one simulated loop."""
 
 
 def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str]]:
-    """Feature vectors and causes of plant-like loops and of as many canonical (thesis) sticky loops."""
+    """Feature vectors and causes of plant-like loops and of twice as many canonical (thesis) sticky loops,
+    half of them noise-free: the thesis's own loop must be recognised as sticky without flags."""
     loops = plant_loops(n_per_class, seed)
     x = [evidence(op, pv, ts_s, sp).vector for op, pv, sp, ts_s in simulate_plant(loops)]
     causes = [loop.cause for loop in loops]
-    thesis = simulate(random_loops(n_per_class, seed + 1)).kept()
+    canonical = random_loops(n_per_class, seed + 1) + random_loops(n_per_class, seed + 2, noisy=False)
+    thesis = simulate(canonical).kept()
     for i in range(thesis.op.shape[0]):
         x.append(evidence(thesis.op[i], thesis.pv[i], 1.0, thesis.sp[i]).vector)
         causes.append("stiction")

@@ -7,6 +7,27 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 SCHEMA_VERSION = 1
+"""The version of the stream's messages (``schemas.messages``)."""
+REPORT_SCHEMA_VERSION = 2
+"""The report's version: 2 adds the verdict, the stiction probability, the likely cause, the process and
+the data checks, and nulls every friction number unless the verdict is ``stiction`` (README, migration)."""
+
+Verdict = Literal["stiction", "other_cause", "no_oscillation", "bad_data"]
+
+
+class ProcessInfo(BaseModel):
+    """What is known of the loop's process when the friction is read."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    kind: Literal["integrating", "self_regulating", "unknown"]
+    source: Literal["declared", "identified", "none"] = Field(
+        description="declared with --process, identified from the data (stiction diagnose), or not known"
+    )
+    gain: float | None = Field(None, description="%/s per % (integrating) or % per % (self-regulating)")
+    time_constant_s: float | None = None
+    dead_time_s: float | None = None
+    sample_time_s: float
 
 
 class Estimate(BaseModel):
@@ -25,12 +46,32 @@ class StictionReport(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    schema_version: Literal[1] = SCHEMA_VERSION
+    schema_version: Literal[2] = REPORT_SCHEMA_VERSION
     loop_id: str
+    verdict: Verdict = Field(
+        description="what the loop is doing: stiction (the friction numbers are its valve's), other_cause "
+        "(oscillates, not from stiction: likely_cause), no_oscillation, or bad_data (warnings say which)"
+    )
+    stiction_probability: float | None = Field(
+        description="the detector's probability that the valve sticks (0..1); null for bad data"
+    )
+    likely_cause: str | None = Field(
+        description="stiction, or for other_cause the look-alike it resembles most (external_oscillation, "
+        "tuning, deadband, quantization)"
+    )
+    regularity: float | None = Field(
+        description="regularity of the oscillation's zero crossings (Thornhill 2003): > 1.5 a regular oscillation"
+    )
+    checks: list[str] = Field(
+        default_factory=list, description="names of the data checks that failed (flat_pv, manual, saturated_op, ...)"
+    )
+    process: ProcessInfo = Field(description="the process the friction is read under")
     fs_pct: float | None = Field(description="static friction, percent of 500 lbf; None if not quantifiable")
     fd_pct: float | None = Field(description="dynamic friction, percent of 500 lbf")
     s_pct: float | None = Field(description="stiction band S = fs/12 in percent of span (Choudhury)")
     j_pct: float | None = Field(description="slip jump J = (fs - fd)/12 in percent of span")
+    s_se_pct: float | None = Field(description="uncertainty (one standard error) of s_pct")
+    j_se_pct: float | None = Field(description="uncertainty (one standard error) of j_pct")
     fs_se_pct: float | None = Field(description="uncertainty (one standard error) of fs_pct")
     fd_se_pct: float | None = Field(description="uncertainty (one standard error) of fd_pct")
     period_s: float | None = Field(description="oscillation period from the autocorrelation function")
@@ -49,7 +90,7 @@ class StictionReport(BaseModel):
         description="distance of the window from the training data: <= 1 inside the range of 99 % of training windows"
     )
     explained: float | None = Field(description="share of the standardised OP-PV variance the INLPCA curve explains")
-    oscillating: bool = Field(description="a clear oscillation was found (ACF peak above 0.3)")
+    oscillating: bool = Field(description="a regular oscillation was found (regularity above 1.5, two cycles or more)")
     warnings: list[str] = Field(default_factory=list)
     model_version: str
     agent_id: str | None = Field(None, description="the agent that produced the report (None: offline)")

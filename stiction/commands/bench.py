@@ -60,6 +60,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     m.add_argument("--workers", type=int, default=2)
     m.add_argument("--markdown", action="store_true", help="print the per-loop table as markdown")
     m.add_argument("--json", action="store_true")
+    t = sub.add_parser("detect", help="is it the valve: the detector beside Horch, bicoherence and shape tests")
+    t.add_argument(
+        "measured", nargs="*", type=Path, metavar="DIR", help="labelled measured exports (a loops.json beside them)"
+    )
+    t.add_argument("--loops", type=int, default=40, help="simulated plant-like loops per class")
+    t.add_argument("--seed", type=int, default=2026)
+    t.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
     a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
@@ -110,7 +117,24 @@ def run(args: argparse.Namespace) -> int:
         _diagnose(args)
     elif args.bench == "measured":
         _measured(args)
+    elif args.bench == "detect":
+        _detect(args)
     return 0
+
+
+def _detect(args) -> None:
+    from bench.detect import bench_detect, print_table
+
+    missing = [str(f) for f in args.measured if not f.exists()]
+    if missing:
+        raise InputError(f"{', '.join(missing)}: no such folder or file")
+    if args.loops < 1:
+        raise InputError(f"--loops {args.loops}: need at least 1")
+    figures = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed) | {"host": _machine()}
+    if args.json:
+        _print_json(figures)
+    else:
+        print_table(figures)
 
 
 def _measured(args) -> None:

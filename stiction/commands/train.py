@@ -28,6 +28,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="train on the extended loop, e.g. dead_time_s=3 (repeatable; the names of stiction simulate's flags)",
     )
+    p.add_argument(
+        "--detector",
+        action="store_true",
+        help="train only the stiction detector (seconds, no torch): simulated plant-like loops, plus --measured",
+    )
+    p.add_argument(
+        "--measured", type=Path, metavar="DIR", help="labelled measured exports (loops.json beside) for --detector"
+    )
     p.add_argument("--realisations", type=int, default=3, help="draws of the limit cycle per grid point")
     p.add_argument("--noisy-variants", type=int, default=4, help="extra runs of the grid with random disturbances")
     p.add_argument("--ensemble", type=int, default=5, help="members of the cycle ensemble")
@@ -57,7 +65,57 @@ def parse_extensions(items: list[str]) -> dict[str, float]:
     return out
 
 
+def _models_dir(args, shipped: Path) -> Path:
+    if args.replace_shipped:
+        return shipped
+    models_dir = args.models or Path(f"stiction-models-{time.strftime('%Y%m%d-%H%M%S')}")
+    if models_dir.exists() and not models_dir.is_dir():
+        raise InputError(f"--models {models_dir}: exists and is not a directory")
+    return models_dir
+
+
+def train_detector(args: argparse.Namespace) -> int:
+    """The detector alone: numpy and scipy, a few seconds."""
+    import numpy as np
+
+    from agent.historian import expand_paths, read_export
+    from agent.predictor import DEFAULT_MODELS_DIR
+    from bench.measured import labels
+    from detect import training
+    from detect.features import evidence
+
+    models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
+    n_per_class = 60
+    x, causes = training.simulated_set(n_per_class, args.seed + training.SIM_SEED)
+    mx, sticky, tags = [], [], []
+    if args.measured is not None:
+        if not args.measured.exists():
+            raise InputError(f"--measured {args.measured}: no such folder")
+        known = labels(args.measured if args.measured.is_dir() else args.measured.parent)
+        for f in expand_paths([args.measured]):
+            meta = known.get(f.stem)
+            if meta:
+                e = read_export(f)
+                mx.append(evidence(e.op, e.pv, e.ts_s, e.sp).vector)
+                sticky.append(meta["label"] == "stiction")
+                tags.append(meta["tag"])
+        if not mx:
+            raise InputError(f"--measured {args.measured}: no labelled exports (a loops.json beside them)")
+    trained_on = (
+        f"{n_per_class} simulated plant-like loops per class of sim.plant_loops (seed {args.seed + training.SIM_SEED})"
+        f" and {2 * n_per_class} canonical sticky loops (half noise-free)"
+        + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
+    )
+    detector = training.train(x, causes, np.array(mx) if mx else None, sticky, tags, trained_on)
+    models_dir.mkdir(parents=True, exist_ok=True)
+    detector.save(models_dir / training.DETECTOR_FILE)
+    print(f"detector written to {models_dir / training.DETECTOR_FILE}: {trained_on}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.detector:
+        return train_detector(args)
     extensions = parse_extensions(args.extension)
     for name in ("realisations", "ensemble"):
         if getattr(args, name) < 1:
@@ -67,12 +125,7 @@ def run(args: argparse.Namespace) -> int:
         from trainer.train import run as train
     except ImportError as e:
         raise StictionError(f"training needs the train extra ({e.name} missing): pip install -e '.[train]'") from None
-    if args.replace_shipped:
-        models_dir = DEFAULT_MODELS_DIR
-    else:
-        models_dir = args.models or Path(f"stiction-models-{time.strftime('%Y%m%d-%H%M%S')}")
-        if models_dir.exists() and not models_dir.is_dir():
-            raise InputError(f"--models {models_dir}: exists and is not a directory")
+    models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
     settings = TrainSettings(
         models_dir=models_dir,
         realisations=args.realisations,
