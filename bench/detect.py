@@ -20,8 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from detect.training import SIM_SEED
+
 METHODS = ("ours", "horch", "bicoherence", "shape")
-from detect.training import SIM_SEED as SIM_TRAIN_SEED
 
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
@@ -49,7 +50,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     from sim.plant_loops import CLASSES, plant_loops, simulate_plant
 
     t0 = time.perf_counter()
-    x_train, causes_train = training.simulated_set(train_per_class, SIM_TRAIN_SEED)
+    x_train, causes_train = training.simulated_set(train_per_class, SIM_SEED)
     detector = training.train(x_train, causes_train)
     out: dict = {"simulated": {}, "measured": {}}
 
