@@ -209,6 +209,7 @@ class Quantifier:
             stiction_probability=verdict.stiction_probability,
             likely_cause=verdict.likely_cause,
             regularity=_opt(ev.oscillation.regularity),
+            amplitude_pct=_opt(ev.oscillation.amplitude_pct),
             checks=[c.name for c in problems],
             process=_process(w, ts_s),
             fs_pct=fs,

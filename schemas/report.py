@@ -62,6 +62,9 @@ class StictionReport(BaseModel):
     regularity: float | None = Field(
         description="regularity of the oscillation's zero crossings (Thornhill 2003): > 1.5 a regular oscillation"
     )
+    amplitude_pct: float | None = Field(
+        description="half the typical peak-to-peak swing of the control error (PV where no setpoint), % of span"
+    )
     checks: list[str] = Field(
         default_factory=list, description="names of the data checks that failed (flat_pv, manual, saturated_op, ...)"
     )

@@ -22,6 +22,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "read fs and fd from its slips where the data allow",
     )
     p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
+    p.add_argument(
+        "--rank",
+        action="store_true",
+        help="plant triage: after every file, a table of the loops ranked by what their valves cost "
+        "(sticky first, by band S, then oscillating loops by amplitude)",
+    )
+    p.add_argument("--csv", type=Path, metavar="FILE", help="with --rank: write the ranked table as CSV too")
 
 
 def _summary(path: str, r) -> str:
@@ -29,9 +36,13 @@ def _summary(path: str, r) -> str:
         return "-" if x is None else f"{x:.{nd}f}"
 
     se = f" +- {f(r.fs_se_pct, 2)}/{f(r.fd_se_pct, 2)}" if r.fs_se_pct is not None else ""
+    p = "" if r.stiction_probability is None else f" (stiction probability {r.stiction_probability:.2f})"
+    cause = f", likely {r.likely_cause.replace('_', ' ')}" if r.verdict == "other_cause" and r.likely_cause else ""
     lines = [
         f"{path}",
-        f"  fs {f(r.fs_pct)} %  fd {f(r.fd_pct)} %  (of 500 lbf){se}   S {f(r.s_pct)} %  J {f(r.j_pct)} % of span",
+        f"  verdict {r.verdict.replace('_', ' ')}{cause}{p}",
+        f"  S {f(r.s_pct, 2)} +- {f(r.s_se_pct, 2)} %  J {f(r.j_pct, 2)} +- {f(r.j_se_pct, 2)} % of span"
+        f"   fs {f(r.fs_pct)} %  fd {f(r.fd_pct)} %  (of 500 lbf){se}",
         f"  period {f(r.period_s)} s   method {r.method}   denoised {'yes' if r.denoised else 'no'}"
         f"   ood {f(r.ood_score, 2)}   thesis chain: fs {f(r.thesis.fs_pct)} %  fd {f(r.thesis.fd_pct)} %",
     ]
@@ -48,8 +59,11 @@ def _plot(png: Path, window, report, details) -> Path:
 def run(args: argparse.Namespace) -> int:
     from agent.pipeline import MIN_SAMPLES, Quantifier, Window
 
+    if args.csv and not args.rank:
+        raise StictionError("--csv FILE goes with --rank")
     quantifier = Quantifier(args.models)
     failed: list[str] = []
+    ranked: list = []
     for path, export in exports.windows(args, "quantify", FIELDS, MIN_SAMPLES, failed):
         try:
             window = Window(
@@ -59,12 +73,16 @@ def run(args: argparse.Namespace) -> int:
                 ts_s=export.ts_s,
                 t_end_s=float(export.t_s[-1]),
                 process=args.process,
+                sp=export.sp,
             )
             report, details = quantifier.quantify_with_details([window])[0]
             if export.warnings:
                 report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
         except StictionError as e:  # one bad file never stops the others
             failed.append(exports.report_error("quantify", path, e))
+            continue
+        if args.rank:
+            ranked.append((str(path), report))
             continue
         exports.show(
             args,
@@ -74,4 +92,10 @@ def run(args: argparse.Namespace) -> int:
             _summary(str(path), report),
             partial(_plot, window=window, report=report, details=details),
         )
+    if args.rank:
+        from stiction.ranking import print_ranking, write_csv
+
+        rows = print_ranking(ranked)
+        if args.csv:
+            write_csv(args.csv, rows)
     return 2 if failed else 0
