@@ -115,11 +115,14 @@ def detect(x: np.ndarray, ts_s: float = 1.0) -> Oscillation:
     if not np.isfinite(period):
         return Oscillation(False, None, float(max(r1, r2)), 0.0, 0.0)
     cycles = n / period
-    amplitude = _amplitude(y, sc) if sc.size >= 3 else float(np.ptp(y)) / 2
+    amplitude = _amplitude(smooth, sc) if sc.size >= 3 else float(np.ptp(smooth)) / 2
     oscillating = bool(r > REGULAR and cycles >= MIN_CYCLES)
     return Oscillation(oscillating, float(period * ts_s), float(r), float(cycles), amplitude)
 
 
 def _amplitude(y: np.ndarray, crossings: np.ndarray) -> float:
-    swings = [float(np.max(np.abs(y[a:b]))) for a, b in zip(crossings[:-1], crossings[1:], strict=True) if b > a]
+    # the 90th percentile of each half cycle's excursion: its peak, without the noise's extremes
+    swings = [
+        float(np.percentile(np.abs(y[a:b]), 90)) for a, b in zip(crossings[:-1], crossings[1:], strict=True) if b > a
+    ]
     return float(np.median(swings)) if swings else float(np.ptp(y)) / 2

@@ -1,0 +1,68 @@
+"""The published tests and the oscillation detector on signals whose answer is known."""
+
+import numpy as np
+import pytest
+
+from detect import bicoherence, horch, oscillation, shape
+
+
+def _triangle(t, period):
+    phase = (t / period) % 1.0
+    return 4 * np.abs(phase - 0.5) - 1
+
+
+def test_a_slow_cycle_of_two_and_a_half_periods_is_found_with_its_period():
+    rng = np.random.default_rng(0)
+    t = np.arange(751.0)
+    x = np.sin(2 * np.pi * t / 300) + 0.3 * rng.standard_normal(t.size)
+    o = oscillation.detect(x, ts_s=10.0)
+    assert o.oscillating and o.cycles < 3
+    assert o.period_s == pytest.approx(3000.0, rel=0.1)
+    assert o.amplitude_pct == pytest.approx(1.0, rel=0.3)
+
+
+def test_noise_and_random_walks_are_rarely_called_oscillating():
+    rng = np.random.default_rng(1)
+    called = 0
+    for k in range(30):
+        e = rng.standard_normal(751)
+        x = np.cumsum(e) if k % 3 == 0 else np.convolve(e, np.ones(20) / 20, "same") if k % 3 == 1 else e
+        called += oscillation.detect(x).oscillating
+    assert called <= 3
+
+
+def test_crossings_with_hysteresis_ignore_noise_near_zero():
+    x = np.array([1.0, 0.1, -0.1, 0.1, -1.0, -0.5, 0.05, 1.0])
+    assert list(oscillation._crossings(x, 0.5)) == [4, 6]  # the last zero crossing before the band is left
+
+
+def test_horch_reads_an_odd_ccf_as_stiction_and_an_even_one_as_not():
+    t = np.arange(1000.0)
+    pv_square = np.sign(np.sin(2 * np.pi * t / 100))  # a sticky flow loop: PV square, OP its integral
+    op_triangle = np.cumsum(-pv_square)
+    assert horch.test(op_triangle, pv_square, np.zeros_like(t), 100).verdict == "stiction"
+    pv_sine = np.sin(2 * np.pi * t / 100)  # a load the controller fights: OP mirrors PV
+    assert horch.test(-2 * pv_sine, pv_sine, np.zeros_like(t), 100).verdict == "no_stiction"
+
+
+def test_shape_index_tells_a_triangle_from_a_sine():
+    rng = np.random.default_rng(2)
+    t = np.arange(1000.0)
+    noise = 0.02 * rng.standard_normal(t.size)
+    assert shape.stiction_index(_triangle(t, 120) + noise) > shape.STICTION
+    assert shape.stiction_index(np.sin(2 * np.pi * t / 120) + noise) < shape.NO_STICTION
+
+
+def test_bicoherence_calls_gaussian_noise_linear_and_a_phase_coupled_signal_nonlinear():
+    rng = np.random.default_rng(3)
+    assert not bicoherence.test(rng.standard_normal(2048)).nonlinear
+    t = np.arange(2048.0)
+    sawtooth = (t / 40.0) % 1.0  # every harmonic, each phase-locked to the others: a limit cycle's signature
+    assert bicoherence.test(sawtooth + 0.05 * rng.standard_normal(t.size)).nonlinear
+
+
+def test_ellipse_band_is_the_plot_width_at_mean_pv():
+    t = np.linspace(0, 20 * np.pi, 4000, endpoint=False)
+    a, b, phase = 3.0, 1.0, 0.4
+    s = bicoherence.ellipse_band_pct(a * np.sin(t + phase), b * np.sin(t))
+    assert s == pytest.approx(2 * a * abs(np.sin(phase)), rel=1e-3)
