@@ -47,7 +47,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     from bench.measured import labels
     from detect import training
     from detect.features import evidence
-    from sim.plant_loops import CLASSES, plant_loops, simulate_plant
+    from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
 
     t0 = time.perf_counter()
     x_train, causes_train = training.simulated_set(train_per_class, SIM_SEED)
@@ -57,6 +57,9 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     loops = plant_loops(n_per_class, seed)
     t1 = time.perf_counter()
     records = simulate_plant(loops)
+    kept = [i for i, r in enumerate(records) if stable(r[0], r[1])]
+    out["diverged"] = len(loops) - len(kept)
+    loops, records = [loops[i] for i in kept], [records[i] for i in kept]
     evs = [evidence(op, pv, ts_s, sp) for op, pv, sp, ts_s in records]
     feature_s = (time.perf_counter() - t1) / len(loops)
     p = detector.stiction_probability(np.nan_to_num(np.array([e.vector for e in evs])))

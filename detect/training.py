@@ -9,7 +9,7 @@ from detect.features import evidence
 from detect.verdict import Detector, fit_logistic
 from sim.grid import random_loops
 from sim.loop import simulate
-from sim.plant_loops import CLASSES, plant_loops, simulate_plant
+from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
 
 OTHERS = tuple(c for c in CLASSES if c != "stiction")
 DETECTOR_FILE = "detector.json"
@@ -23,8 +23,11 @@ def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str]]:
     """Feature vectors and causes of plant-like loops and of twice as many canonical (thesis) sticky loops,
     half of them noise-free: the thesis's own loop must be recognised as sticky without flags."""
     loops = plant_loops(n_per_class, seed)
-    x = [evidence(op, pv, ts_s, sp).vector for op, pv, sp, ts_s in simulate_plant(loops)]
-    causes = [loop.cause for loop in loops]
+    x, causes = [], []
+    for loop, (op, pv, sp, ts_s) in zip(loops, simulate_plant(loops), strict=True):
+        if stable(op, pv):
+            x.append(evidence(op, pv, ts_s, sp).vector)
+            causes.append(loop.cause)
     canonical = random_loops(n_per_class, seed + 1) + random_loops(n_per_class, seed + 2, noisy=False)
     thesis = simulate(canonical).kept()
     for i in range(thesis.op.shape[0]):
