@@ -56,3 +56,37 @@ def test_plot_writes_one_png_per_loop_that_is_not_blank(loops, tmp_path, capsys)
         img = mpimg.imread(p)
         assert img.shape[0] > 300 and img.shape[1] > 800
         assert img[..., :3].std() > 0.05  # lines and points, not an empty canvas
+
+
+def test_rank_puts_the_sticky_valve_first_and_the_dead_sensor_last(loops, tmp_path, capsys):
+    import numpy as np
+
+    from sim.plant_loops import plant_loops, simulate_plant, stable
+
+    plant = tmp_path / "plant"
+    plant.mkdir()
+    main(["simulate", "--fs-pct", "60", "--fd-pct", "20", "--out", str(plant / "sticky.csv")])
+    external = next(
+        (r for loop, r in zip(plant_loops(6, 5), simulate_plant(plant_loops(6, 5)), strict=True)
+         if loop.cause == "external_oscillation" and stable(r[0], r[1])))  # fmt: skip
+    op, pv, sp, ts_s = external
+    t = np.arange(op.size) * ts_s
+    np.savetxt(plant / "load.csv", np.c_[t, op, pv, sp], delimiter=",", header="t,op,pv,sp", comments="")
+    np.savetxt(plant / "dead.csv", np.c_[t, op, np.full(op.size, 3.5e-44)], delimiter=",", header="t,op,pv",
+               comments="")  # fmt: skip
+    out_csv = tmp_path / "ranked.csv"
+    assert main(["quantify", str(plant), "--rank", "--csv", str(out_csv)]) == 0
+    printed = capsys.readouterr().out
+    rows = out_csv.read_text().splitlines()
+    assert rows[0].startswith("rank,loop,verdict")
+    order = [line.split(",")[1] for line in rows[1:]]
+    verdicts = {line.split(",")[1]: line.split(",")[2] for line in rows[1:]}
+    assert order[0] == "sticky" and verdicts["sticky"] == "stiction"
+    assert order[-1] == "dead" and verdicts["dead"] == "bad_data"
+    assert verdicts["load"] != "stiction"
+    assert "3 loops: 1 stiction" in printed
+
+
+def test_csv_without_rank_is_refused(loops, capsys):
+    assert main(["quantify", str(loops / "a.csv"), "--csv", "x.csv"]) == 2
+    assert "--csv FILE goes with --rank" in capsys.readouterr().err
