@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 import traceback
 import warnings
@@ -50,6 +51,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:  # the reader left (``| head``): stop quietly, as Unix tools do
+        sys.stderr = open(os.devnull, "w")  # noqa: SIM115 - the interpreter flushes it at exit
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115
+        return 0
     except Exception as e:  # a bug: one line for the user, the traceback with -vv
         if args.verbose >= 2:
             raise

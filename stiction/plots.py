@@ -12,24 +12,34 @@ import numpy as np  # noqa: E402
 
 
 def _title(report) -> str:
-    if report.fs_pct is None:
-        return f"{report.loop_id}: no estimate ({'; '.join(report.warnings)[:80]})"
-    se = f" +- {report.fs_se_pct:.2f}/{report.fd_se_pct:.2f}" if report.fs_se_pct is not None else ""
-    return (
-        f"{report.loop_id}: fs {report.fs_pct:.1f} %, fd {report.fd_pct:.1f} % of 500 lbf{se} "
-        f"(S {report.s_pct:.1f} %, J {report.j_pct:.1f} % of span; {report.method})"
-    )
+    """The verdict first, then S and J with their uncertainty, then every warning (one line each)."""
+    p = "" if report.stiction_probability is None else f" (p {report.stiction_probability:.2f})"
+    cause = f", likely {report.likely_cause}" if report.verdict == "other_cause" and report.likely_cause else ""
+    head = f"{report.loop_id}: {report.verdict.replace('_', ' ')}{cause}{p}"
+    if report.s_pct is not None:
+        s_se = f" +- {report.s_se_pct:.2f}" if report.s_se_pct is not None else ""
+        j_se = f" +- {report.j_se_pct:.2f}" if report.j_se_pct is not None else ""
+        head += (
+            f"; S {report.s_pct:.2f}{s_se} %, J {report.j_pct:.2f}{j_se} % of span"
+            f" (fs {report.fs_pct:.1f}, fd {report.fd_pct:.1f} % of 500 lbf; {report.method})"
+        )
+    return "\n".join([head, *(w[:110] for w in report.warnings)])
 
 
 def plot_loop(out: Path, window, report, details) -> Path:
     """OP and PV over time; the OP-PV curve before and after denoising; the estimate in the title."""
     t = (window.t_end_s or 0.0) - window.ts_s * np.arange(len(window.op))[::-1]
     fig, (ax_t, ax_c) = plt.subplots(1, 2, figsize=(13, 4.5), gridspec_kw={"width_ratios": [1.6, 1]})
-    ax_t.plot(t, window.op, lw=0.9, label="OP")
-    ax_t.plot(t, window.pv, lw=0.9, label="PV")
+    ax_t.plot(t, window.op, lw=0.9, color="tab:blue", label="OP")
     ax_t.set_xlabel("time, s")
-    ax_t.set_ylabel("percent")
-    ax_t.legend(loc="upper right")
+    ax_t.set_ylabel("OP, percent", color="tab:blue")
+    ax_pv = ax_t.twinx()  # each on its own axis: a 1 % slip of PV is invisible on OP's 20 % scale
+    ax_pv.plot(t, window.pv, lw=0.9, color="tab:orange", label="PV")
+    if getattr(window, "sp", None) is not None:
+        ax_pv.plot(t, window.sp, lw=0.8, ls="--", color="0.3", label="SP")
+    ax_pv.set_ylabel("PV, percent", color="tab:orange")
+    handles = ax_t.get_legend_handles_labels()[0] + ax_pv.get_legend_handles_labels()[0]
+    ax_t.legend(handles=handles, loc="upper right")
     ax_c.plot(window.op, window.pv, ".", ms=2.5, color="0.6", label="measured")
     ax_c.plot(
         details.denoised[:, 0],
