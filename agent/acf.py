@@ -4,21 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from detect.oscillation import autocorrelation
 
-def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
-    """``r_k = c_k / c_0`` of thesis 4.5 for lags ``0..max_lag`` of each row of ``x``.
-
-    ``c_k = 1/(N-1) sum_{t<=N-k} (y_t - ybar)(y_{t+k} - ybar)`` with the same
-    normalisation for ``c_0``; computed with one FFT per row.
-    """
-    x = np.atleast_2d(np.asarray(x, dtype=float))
-    n = x.shape[1]
-    centred = x - x.mean(axis=1, keepdims=True)
-    size = 1 << int(np.ceil(np.log2(2 * n)))
-    spectrum = np.fft.rfft(centred, size, axis=1)
-    c = np.fft.irfft(spectrum * np.conj(spectrum), size, axis=1)[:, : max_lag + 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return c / c[:, :1]
+__all__ = ["acf_period", "autocorrelation"]
 
 
 def acf_period(x: np.ndarray, ts_s: float = 1.0, min_lag: int = 3) -> tuple[np.ndarray, np.ndarray]:

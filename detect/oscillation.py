@@ -41,7 +41,7 @@ class Oscillation:
     cycles: float
     """Cycles of the period in the window."""
     amplitude_pct: float
-    """Half the median peak-to-peak swing per cycle of the detrended signal, % of span."""
+    """Median over half cycles of the smoothed, detrended signal's 90th-percentile excursion, % of span."""
 
 
 def detrend(x: np.ndarray) -> np.ndarray:
@@ -82,13 +82,28 @@ def _peak_near(r: np.ndarray, lag: float) -> float:
     return float(r[lo:hi].max()) if hi > lo else 0.0
 
 
-def acf(x: np.ndarray, max_lag: int) -> np.ndarray:
-    x = x - x.mean()
-    n = x.size
+def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """``r_k = c_k / c_0`` of thesis 4.5 for lags ``0..max_lag`` of each row of ``x``.
+
+    ``c_k = 1/(N-1) sum_{t<=N-k} (y_t - ybar)(y_{t+k} - ybar)`` with the same
+    normalisation for ``c_0``; computed with one FFT per row.
+    """
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    n = x.shape[1]
+    centred = x - x.mean(axis=1, keepdims=True)
     size = 1 << int(np.ceil(np.log2(2 * n)))
-    spectrum = np.fft.rfft(x, size)
-    c = np.fft.irfft(spectrum * np.conj(spectrum), size)[: max_lag + 1]
-    return c / c[0] if c[0] > 0 else np.zeros(max_lag + 1)
+    spectrum = np.fft.rfft(centred, size, axis=1)
+    c = np.fft.irfft(spectrum * np.conj(spectrum), size, axis=1)[:, : max_lag + 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return c / c[:, :1]
+
+
+def half_cycles(y: np.ndarray, sd: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(smoothed y, its zero crossings)``: lightly smoothed so that noise does not cross, with
+    hysteresis of ``HYSTERESIS_STD`` standard deviations ``sd``."""
+    width = max(1, min(y.size // 50, 5))
+    smooth = np.convolve(y, np.ones(width) / width, mode="same") if width > 1 else y
+    return smooth, _crossings(smooth, HYSTERESIS_STD * sd)
 
 
 def detect(x: np.ndarray, ts_s: float = 1.0) -> Oscillation:
@@ -99,15 +114,12 @@ def detect(x: np.ndarray, ts_s: float = 1.0) -> Oscillation:
     sd = float(np.std(y))
     if not sd > 0:
         return Oscillation(False, None, 0.0, 0.0, 0.0)
-    r_acf = acf(y, int(MAX_LAG_SHARE * n))
+    r_acf = autocorrelation(y, int(MAX_LAG_SHARE * n))[0]  # sd > 0, so c_0 > 0
     zc = _crossings(r_acf, 2.0 / np.sqrt(n))  # the ACF's own estimation noise is about 1/sqrt(n)
     r1, p1 = _regularity(np.diff(zc).astype(float)) if zc.size >= 4 else (0.0, float("nan"))
     if np.isfinite(p1) and _peak_near(r_acf, p1) < ACF_PEAK:
         r1 = 0.0  # regular crossings of an ACF that never comes back: coloured noise, not a cycle
-    # the signal's own crossings, lightly smoothed so that noise does not cross
-    width = max(1, min(n // 50, 5))
-    smooth = np.convolve(y, np.ones(width) / width, mode="same") if width > 1 else y
-    sc = _crossings(smooth, HYSTERESIS_STD * sd)
+    smooth, sc = half_cycles(y, sd)  # the signal's own crossings
     r2, p2 = _regularity(np.diff(sc).astype(float))
     if sc.size - 1 < FEW_INTERVALS:
         r2 /= FEW_PENALTY  # a handful of half periods is regular by chance more often

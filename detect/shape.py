@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from detect.oscillation import HYSTERESIS_STD, _crossings, detrend
+from detect.oscillation import detrend, half_cycles
 
 STICTION = 0.6
 NO_STICTION = 0.4
@@ -20,12 +20,13 @@ APEXES = 9
 """Apex positions tried per half cycle (shares of it from 0.1 to 0.9)."""
 
 
-def _fit_error(seg: np.ndarray, shape: np.ndarray) -> float:
-    """Mean square error of ``seg`` against ``a * shape + b`` at the best a, b."""
-    design = np.stack([shape, np.ones_like(shape)], axis=1)
-    coef, *_ = np.linalg.lstsq(design, seg, rcond=None)
-    r = seg - design @ coef
-    return float(np.mean(r * r))
+def _fit_errors(seg: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """[S] mean square error of ``seg`` against ``a * shape + b`` at the best a, b, for each row of
+    ``shapes`` [S, m]: least squares in closed form on the centred signals."""
+    y = seg - seg.mean()
+    s = shapes - shapes.mean(axis=1, keepdims=True)
+    sse = y @ y - (s @ y) ** 2 / np.einsum("ij,ij->i", s, s)
+    return np.maximum(sse, 0.0) / seg.size
 
 
 def stiction_index(x: np.ndarray) -> float:
@@ -34,22 +35,19 @@ def stiction_index(x: np.ndarray) -> float:
     sd = float(np.std(y))
     if not sd > 0:
         return float("nan")
-    width = max(1, min(y.size // 50, 5))
-    smooth = np.convolve(y, np.ones(width) / width, mode="same") if width > 1 else y
-    zc = _crossings(smooth, HYSTERESIS_STD * sd)
+    _, zc = half_cycles(y, sd)
     if zc.size < 3:
         return float("nan")
+    apexes = np.linspace(0.1, 0.9, APEXES)[:, None]
     mse_sine = mse_triangle = 0.0
     for a, b in zip(zc[:-1], zc[1:], strict=True):
         seg = y[a : b + 1]
         if seg.size < 5:
             continue
         u = np.linspace(0.0, 1.0, seg.size)
-        mse_sine += _fit_error(seg, np.sin(np.pi * u))
-        best = np.inf
-        for apex in np.linspace(0.1, 0.9, APEXES):
-            triangle = np.where(u <= apex, u / apex, (1 - u) / (1 - apex))
-            best = min(best, _fit_error(seg, triangle))
-        mse_triangle += best
+        triangles = np.where(u <= apexes, u / apexes, (1 - u) / (1 - apexes))
+        errors = _fit_errors(seg, np.vstack([np.sin(np.pi * u), triangles]))
+        mse_sine += errors[0]
+        mse_triangle += errors[1:].min()
     total = mse_sine + mse_triangle
     return float(mse_sine / total) if total > 0 else float("nan")
