@@ -43,8 +43,7 @@ def _blocked(op, pv) -> bool:
 
 
 def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, train_per_class: int = 60) -> dict:
-    from agent.historian import expand_paths, read_export
-    from bench.measured import labels
+    from bench.measured import labelled_exports
     from detect import training
     from detect.features import evidence
     from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
@@ -69,19 +68,10 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
         out["simulated"][cls] = {m: float(np.mean([c[m] for c in called])) for m in METHODS} | {"n": len(idx)}
     out["simulated_seconds_per_loop"] = feature_s
 
-    files = [f for f in expand_paths(measured) if f.suffix.lower() in (".csv", ".parquet")]
-    known = {}
-    for m in measured:
-        known.update(labels(m if m.is_dir() else m.parent))
-    rows = []
-    for f in files:
-        meta = known.get(f.stem)
-        if not meta:
-            continue
-        e = read_export(f)
-        rows.append(
-            (meta["tag"], meta["label"] == "stiction", evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
-        )
+    rows = [
+        (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
+        for tag, sticky, e in labelled_exports(measured)
+    ]
     if rows:
         tags = [r[0] for r in rows]
         xm = np.nan_to_num(np.array([r[2].vector for r in rows]))

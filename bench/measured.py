@@ -31,6 +31,21 @@ def labels(folder: Path) -> dict[str, dict]:
     return {}
 
 
+def labelled_exports(paths: list[Path]) -> list[tuple[str, bool, object]]:
+    """``(tag, labelled sticky, Export)`` for every export of ``paths`` (folders or files) that has a label."""
+    from agent.historian import expand_paths, read_export
+
+    known: dict[str, dict] = {}
+    for p in paths:
+        known.update(labels(p if p.is_dir() else p.parent))
+    out = []
+    for f in expand_paths(paths):
+        meta = known.get(f.stem)
+        if meta:
+            out.append((meta["tag"], meta["label"] == "stiction", read_export(f)))
+    return out
+
+
 def bench_measured(folders: list[Path], workers: int = 2) -> dict:
     files = sorted(str(p) for f in folders for p in (sorted(f.glob("*.csv")) if f.is_dir() else [f]))
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):

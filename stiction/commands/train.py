@@ -78,9 +78,8 @@ def train_detector(args: argparse.Namespace) -> int:
     """The detector alone: numpy and scipy, a few seconds."""
     import numpy as np
 
-    from agent.historian import expand_paths, read_export
     from agent.predictor import DEFAULT_MODELS_DIR
-    from bench.measured import labels
+    from bench.measured import labelled_exports
     from detect import training
     from detect.features import evidence
 
@@ -91,14 +90,10 @@ def train_detector(args: argparse.Namespace) -> int:
     if args.measured is not None:
         if not args.measured.exists():
             raise InputError(f"--measured {args.measured}: no such folder")
-        known = labels(args.measured if args.measured.is_dir() else args.measured.parent)
-        for f in expand_paths([args.measured]):
-            meta = known.get(f.stem)
-            if meta:
-                e = read_export(f)
-                mx.append(evidence(e.op, e.pv, e.ts_s, e.sp).vector)
-                sticky.append(meta["label"] == "stiction")
-                tags.append(meta["tag"])
+        for tag, is_sticky, e in labelled_exports([args.measured]):
+            mx.append(evidence(e.op, e.pv, e.ts_s, e.sp).vector)
+            sticky.append(is_sticky)
+            tags.append(tag)
         if not mx:
             raise InputError(f"--measured {args.measured}: no labelled exports (a loops.json beside them)")
     trained_on = (
