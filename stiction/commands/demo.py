@@ -76,9 +76,15 @@ def summarise(reports, truths, wall_s: float, published: int, health) -> dict:
         e = [x for (r, _), x in zip(pairs, err, strict=True) if r.method == m]
         if e:
             by_method[m] = {"loops": len(e), "mae_pp": float(np.mean(e))}
+    verdicts: dict[str, int] = {}
+    for i, r in reports.items():
+        if i in truths:
+            verdicts[r.verdict] = verdicts.get(r.verdict, 0) + 1
     return {
         "loops": len(truths),
-        "loops_reported": len(pairs),
+        "loops_reported": sum(verdicts.values()),
+        "loops_with_friction": len(pairs),
+        "verdicts": verdicts,
         "reports": health.reports,
         "mae_pp": float(err.mean()) if err.size else None,
         "thesis_chain_mae_pp": float(thesis.mean()) if thesis.size else None,
@@ -173,6 +179,11 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"  loops {s['loops']}, reported {s['loops_reported']}, reports {s['reports']} "
         f"({s['reports_per_s']:.1f}/s), samples ingested {s['samples_per_s']:.0f}/s"
+    )
+    verdicts = ", ".join(f"{n} {v.replace('_', ' ')}" for v, n in sorted(s["verdicts"].items()))
+    print(
+        f"  verdicts: {verdicts}; friction numbers for {s['loops_with_friction']} "
+        "(every simulated valve sticks: the others are the detector's misses)"
     )
     if s["mae_pp"] is not None:
         methods = ", ".join(f"{m} {v['loops']} loops {v['mae_pp']:.2f} pp" for m, v in s["by_method"].items())
