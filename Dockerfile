@@ -3,6 +3,8 @@ FROM python:3.11-slim
 WORKDIR /app
 COPY pyproject.toml README.md ./
 COPY sim sim
+COPY ident ident
+COPY detect detect
 COPY agent agent
 COPY schemas schemas
 COPY stiction stiction
