@@ -31,6 +31,16 @@ class CoreSettings:
     max_loops: int = 20000
     max_payload_bytes: int = 512 * 1024
     replicas: int = 2
+    first_report_samples: int = 200
+    """A new loop's first report comes once it holds this many samples (a partial window, flagged);
+    the window then grows to ``window_samples``."""
+    max_fill_samples: int | None = None
+    """Gaps of the stream up to this many samples are filled by linear interpolation (counted, and
+    said in the report); longer gaps restart the window.  None: a tenth of the window."""
+
+    @property
+    def fill_limit(self) -> int:
+        return self.window_samples // 10 if self.max_fill_samples is None else self.max_fill_samples
 
 
 def rank(agent_id: str, loop_id: str) -> int:
@@ -44,6 +54,17 @@ class _Loop:
     process: str | None
     new_since_report: int = 0
     arrived_at: float = 0.0
+    filled: list[tuple[int, int]] | None = None
+    """(first seq, samples) of each interpolated gap still in the window."""
+
+    def interpolated(self) -> int:
+        """Interpolated samples inside the window now (older gaps are forgotten)."""
+        w = self.window
+        if not self.filled or w.next_seq is None:
+            return 0
+        start = w.next_seq - w.count
+        self.filled = [(s, n) for s, n in self.filled if s + n > start]
+        return sum(min(s + n, w.next_seq) - max(s, start) for s, n in self.filled)
 
 
 class AgentCore:
@@ -54,6 +75,8 @@ class AgentCore:
         self.rejected: Counter[str] = Counter()
         self.samples = 0
         self.reports = 0
+        self.gaps_filled = 0
+        self.samples_filled = 0
         self.latencies: list[float] = []
         self.agents: tuple[str, ...] = (self.agent_id,)
         self._roles: dict[str, int] = {}  # loop -> its rank among live agents, cached per membership
@@ -113,10 +136,12 @@ class AgentCore:
             elif batch.seq < w.next_seq:
                 reason = "duplicate" if w.holds(batch.seq, batch.op, batch.pv) else "out_of_order"
                 return self.reject(reason, f"{loop_id} seq {batch.seq} < {w.next_seq}")
+            elif batch.seq > w.next_seq and batch.seq - w.next_seq <= self.settings.fill_limit:
+                self._fill(state, batch)
             elif batch.seq > w.next_seq:
                 self.reject("gap", f"{loop_id} seq {batch.seq} > {w.next_seq}: window restarted")
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
-                state.new_since_report = 0
+                state.new_since_report, state.filled = 0, None
         w.update(batch.seq, batch.t0_s, batch.op, batch.pv)
         state.process = batch.process
         state.new_since_report += len(batch.op)
@@ -124,19 +149,47 @@ class AgentCore:
         self.samples += len(batch.op)
         return None
 
+    def _fill(self, state: _Loop, batch: SampleBatch) -> None:
+        """A short gap: the missing samples drawn on the straight line from the last held sample to
+        the batch's first, so that the window goes on instead of restarting."""
+        w = state.window
+        start, missing = w.next_seq, batch.seq - w.next_seq
+        op, pv = w.get()
+        frac = np.arange(1, missing + 1) / (missing + 1)
+        w.update(
+            start,
+            w.t_end_s + w.ts_s,
+            op[-1] + frac * (batch.op[0] - op[-1]),
+            pv[-1] + frac * (batch.pv[0] - pv[-1]),
+        )
+        state.filled = (state.filled or []) + [(start, missing)]
+        state.new_since_report += missing
+        self.gaps_filled += 1
+        self.samples_filled += missing
+        log.debug("%s: %d missing samples from seq %d interpolated", batch.loop_id, missing, start)
+
     # reports ---------------------------------------------------------------------------------
     def due(self) -> list[tuple[Window, float]]:
-        """Owned loops with a full window and enough new samples: (window, arrival time of its last sample)."""
+        """Owned loops with enough samples (a new loop's first, partial window; then the full window)
+        and enough new samples since their last report: (window, arrival time of its last sample)."""
         out = []
+        full = self.settings.window_samples
+        first = min(self.settings.first_report_samples, full)
         for loop_id, state in self.loops.items():
             w = state.window
-            if (
-                w.count >= self.settings.window_samples
-                and state.new_since_report >= self.settings.report_every_samples
-                and self.owns(loop_id)
-            ):
+            if w.count >= first and state.new_since_report >= self.settings.report_every_samples and self.owns(loop_id):
                 op, pv = w.get()
-                out.append((Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process), state.arrived_at))
+                window = Window(
+                    loop_id,
+                    op,
+                    pv,
+                    w.ts_s,
+                    w.t_end_s,
+                    state.process,
+                    full_samples=full,
+                    interpolated=state.interpolated(),
+                )
+                out.append((window, state.arrived_at))
                 state.new_since_report = 0
         return out
 

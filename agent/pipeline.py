@@ -51,6 +51,10 @@ class Window:
     """``"level"`` for the canonical level loop (its physical reading applies); None when unknown."""
     sp: np.ndarray | None = None
     """Setpoint, where recorded: the detector reads the control error, and setpoint moves."""
+    full_samples: int | None = None
+    """The agent's full window; a shorter window is a new loop's partial first window."""
+    interpolated: int = 0
+    """Samples filled in across short gaps of the stream."""
 
     def validate(self) -> None:
         op, pv = np.asarray(self.op), np.asarray(self.pv)
@@ -170,6 +174,13 @@ class Quantifier:
                 # the declared level loop's slips read fs and fd: the valve's own evidence outweighs the cycle's shape
                 verdict = Verdict("stiction", verdict.stiction_probability, "stiction", "the slips read fs and fd")
             warnings = [c.message for c in problems]
+            if w.full_samples is not None and len(w.op) < w.full_samples:
+                warnings.append(
+                    f"partial window: {len(w.op)} of {w.full_samples} samples (a new loop); "
+                    "the verdict and numbers firm up as the window fills"
+                )
+            if w.interpolated:
+                warnings.append(f"{w.interpolated} samples interpolated across gaps in the stream")
             if not level[i]:
                 warnings.append("process not declared: the physical reading of the slips (level loop) is not used")
             if np.isfinite(ood[i]) and ood[i] > 1:
@@ -233,6 +244,8 @@ class Quantifier:
             model_version=self.model_version,
             t_end_s=w.t_end_s,
             n_samples=int(len(w.op)),
+            partial=w.full_samples is not None and len(w.op) < w.full_samples,
+            interpolated_samples=int(w.interpolated),
         )
 
 

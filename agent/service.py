@@ -45,6 +45,8 @@ class AgentSettings:
     """Windows quantified together at most (the pipeline batches them)."""
     max_loops: int = 20000
     """Loops held at most: a burst of unknown loops beyond it is refused, not stored."""
+    first_report_samples: int = 200
+    """A new loop's first (partial) report once it holds this many samples."""
 
 
 class AgentService:
@@ -62,6 +64,7 @@ class AgentService:
                 window_samples=settings.window_samples,
                 report_every_samples=settings.report_every_samples,
                 max_loops=settings.max_loops,
+                first_report_samples=settings.first_report_samples,
             ),
         )
         self.latest: dict[str, bytes] = {}
@@ -208,6 +211,8 @@ class AgentService:
             latency_p50_s=p50,
             latency_p99_s=p99,
             pending_loops=self.core.pending(),
+            gaps_filled=self.core.gaps_filled,
+            samples_filled=self.core.samples_filled,
         )
 
     def publish_health(self) -> None:

@@ -69,3 +69,5 @@ class AgentHealth(BaseModel):
     latency_p50_s: float | None = Field(description="from a window's last sample arriving to its report")
     latency_p99_s: float | None
     pending_loops: int
+    gaps_filled: int = Field(0, description="short gaps in loops' streams filled by interpolation")
+    samples_filled: int = Field(0, description="samples interpolated across those gaps")

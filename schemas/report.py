@@ -99,3 +99,9 @@ class StictionReport(BaseModel):
     agent_id: str | None = Field(None, description="the agent that produced the report (None: offline)")
     t_end_s: float | None = Field(None, description="time of the window's last sample")
     n_samples: int
+    partial: bool = Field(
+        False, description="the window is shorter than the agent's full window (a new loop's first reports)"
+    )
+    interpolated_samples: int = Field(
+        0, description="samples of the window filled in by linear interpolation across short gaps in the stream"
+    )

@@ -19,6 +19,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--models", type=Path, help="directory with the ONNX models and their cards")
     p.add_argument("--agent-id", default=None, help="unique per agent (default: host-pid)")
     p.add_argument("--window", type=int, default=1000, help="samples per loop window (default 1000)")
+    p.add_argument(
+        "--first-window",
+        type=int,
+        default=200,
+        help="a new loop's first report once it holds this many samples, flagged partial (default 200)",
+    )
     p.add_argument("--report-every", type=int, default=60, help="new samples between a loop's reports (default 60)")
     p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")
     zenoh_config.add_arguments(p)
@@ -44,8 +50,8 @@ def run(args: argparse.Namespace) -> int:
 
     from agent.service import AgentService, AgentSettings
 
-    if args.window < 100 or args.report_every < 1:
-        raise InputError("--window must be at least 100 samples and --report-every at least 1")
+    if args.window < 100 or args.first_window < 100 or args.report_every < 1:
+        raise InputError("--window and --first-window must be at least 100 samples and --report-every at least 1")
     if not args.listen and not args.connect and args.config is None:
         args.connect = [DEFAULT_ENDPOINT]
         args.listen = [zenoh_config.free_loopback_endpoint()]
@@ -55,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
         prefix=args.prefix,
         window_samples=args.window,
         report_every_samples=args.report_every,
+        first_report_samples=args.first_window,
         models_dir=args.models,
     )
     log.info("settings: %s", settings)

@@ -101,3 +101,35 @@ def test_other_agents_loops_are_not_even_parsed():
     for lid in theirs[:3]:
         core.ingest(f"stiction/demo/loop/{lid}/samples", b"not json at all", JSON, 0.0)
     assert not core.rejected and mine
+
+
+def test_a_new_loop_reports_a_partial_window_first_then_grows_to_the_full_one():
+    core = AgentCore("a1", CoreSettings(window_samples=300, report_every_samples=50, first_report_samples=120))
+    for seq in range(0, 110, 10):
+        core.ingest(KEY, _payload(seq), JSON, float(seq))
+    assert core.due() == []  # 110 samples: not yet
+    core.ingest(KEY, _payload(110), JSON, 110.0)
+    (first, _), *rest = core.due()
+    assert not rest and len(first.op) == 120 and first.full_samples == 300
+    sizes = []
+    for seq in range(120, 400, 10):
+        core.ingest(KEY, _payload(seq), JSON, float(seq))
+        sizes += [len(w.op) for w, _ in core.due()]
+    assert sizes == [170, 220, 270, 300, 300]  # every 50 new samples, the window never beyond 300
+
+
+def test_a_short_gap_is_interpolated_and_counted_a_long_one_restarts_the_window():
+    core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=200, max_fill_samples=5))
+    core.ingest(KEY, _payload(0, n=50), JSON, 0.0)  # op = seq
+    core.ingest(KEY, _payload(54, n=10, op=[100.0] * 10), JSON, 0.0)  # seq 50..53 missing
+    op, _ = core.loops["L1"].window.get()
+    assert core.loops["L1"].window.count == 64 and not core.rejected
+    np.testing.assert_allclose(op[49:55], [49.0, 59.2, 69.4, 79.6, 89.8, 100.0])
+    assert (core.gaps_filled, core.samples_filled) == (1, 4)
+    assert core.loops["L1"].interpolated() == 4
+    core.ingest(KEY, _payload(64, n=40), JSON, 0.0)  # the gap stays inside the 100-sample window
+    assert core.loops["L1"].interpolated() == 4
+    core.ingest(KEY, _payload(104, n=60), JSON, 0.0)  # and then slides out of it
+    assert core.loops["L1"].interpolated() == 0
+    core.ingest(KEY, _payload(170), JSON, 0.0)  # 6 missing > 5: the window restarts
+    assert core.rejected["gap"] == 1 and core.loops["L1"].window.count == 10

@@ -106,3 +106,17 @@ def test_agent_core_imports_no_torch_zenoh_or_rerun():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_partial_and_interpolated_windows_are_flagged_and_otherwise_the_same_report(quantifier, cases):
+    specs, r = cases
+    name = next(iter(specs))
+    plain = quantifier.quantify([Window(name, r.op[0], r.pv[0], process="level")])[0]
+    flagged = quantifier.quantify(
+        [Window(name, r.op[0], r.pv[0], process="level", full_samples=len(r.op[0]) + 500, interpolated=7)]
+    )[0]
+    assert not plain.partial and plain.interpolated_samples == 0
+    assert flagged.partial and flagged.interpolated_samples == 7
+    assert any(w.startswith(f"partial window: {len(r.op[0])} of") for w in flagged.warnings)
+    assert any("7 samples interpolated" in w for w in flagged.warnings)
+    assert flagged.fs_pct == plain.fs_pct and flagged.verdict == plain.verdict
