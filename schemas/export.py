@@ -9,7 +9,8 @@ import json
 from pathlib import Path
 
 from schemas.diagnosis import DiagnosisReport
-from schemas.messages import AgentHealth, LoopTruth, SampleBatch
+from schemas.loop_file import LoopFile
+from schemas.messages import AgentHealth, BridgeHealth, LoopTruth, SampleBatch
 from schemas.model_card import ModelCard
 from schemas.report import StictionReport
 
@@ -17,6 +18,8 @@ MODELS = {
     "sample_batch": SampleBatch,
     "loop_truth": LoopTruth,
     "agent_health": AgentHealth,
+    "bridge_health": BridgeHealth,
+    "loop_file": LoopFile,
     "stiction_report": StictionReport,
     "model_card": ModelCard,
     "diagnosis_report": DiagnosisReport,

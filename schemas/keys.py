@@ -41,6 +41,10 @@ def agent_health(prefix: str, agent_id: str) -> str:
     return f"{prefix}/agent/{check_id(agent_id, 'agent id')}/health"
 
 
+def bridge_health(prefix: str, bridge_id: str) -> str:
+    return f"{prefix}/bridge/{check_id(bridge_id, 'bridge id')}/health"
+
+
 def all_samples(prefix: str) -> str:
     return f"{prefix}/loop/*/samples"
 

@@ -25,12 +25,17 @@ class SampleBatch(BaseModel):
     op: list[float] = Field(min_length=1, max_length=MAX_BATCH_SAMPLES, description="controller output, percent")
     pv: list[float] = Field(min_length=1, max_length=MAX_BATCH_SAMPLES, description="process value, percent")
     sp: list[float] | None = Field(None, max_length=MAX_BATCH_SAMPLES)
+    mv: list[float] | None = Field(None, max_length=MAX_BATCH_SAMPLES, description="valve position, percent")
+    mode: list[float] | None = Field(
+        None, max_length=MAX_BATCH_SAMPLES, description="controller mode as recorded (e.g. 1 auto, 0 manual)"
+    )
     process: Literal["level"] | None = Field(None, description="'level' for the canonical level loop; else unknown")
 
     @model_validator(mode="after")
     def _equal_lengths(self):
-        if len(self.pv) != len(self.op) or (self.sp is not None and len(self.sp) != len(self.op)):
-            raise ValueError(f"op, pv (and sp) must have equal lengths, got {len(self.op)}, {len(self.pv)}")
+        lengths = {name: len(x) for name in ("op", "pv", "sp", "mv", "mode") if (x := getattr(self, name)) is not None}
+        if len(set(lengths.values())) > 1:
+            raise ValueError(f"op, pv (and sp, mv, mode) must have equal lengths, got {lengths}")
         return self
 
 
@@ -71,3 +76,21 @@ class AgentHealth(BaseModel):
     pending_loops: int
     gaps_filled: int = Field(0, description="short gaps in loops' streams filled by interpolation")
     samples_filled: int = Field(0, description="samples interpolated across those gaps")
+
+
+class BridgeHealth(BaseModel):
+    """A bridge's counters (OPC UA or replay), published periodically on ``{prefix}/bridge/{id}/health``."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    bridge_id: str
+    source: str = Field(description="the OPC UA endpoint, or the replayed paths")
+    connected: bool
+    uptime_s: float
+    loops: int = Field(description="loops in the loop file")
+    loops_publishing: int = Field(description="loops whose samples went out in the last interval")
+    samples_published: int
+    dropped: dict[str, int] = Field(description="values dropped by reason (bad_status, not_finite, out_of_order, ...)")
+    reconnects: int
+    loops_missing: dict[str, str] = Field(description="loops that cannot be read, and why (a node the server lacks)")
