@@ -5,10 +5,11 @@ COPY pyproject.toml README.md ./
 COPY sim sim
 COPY ident ident
 COPY detect detect
+COPY bridge bridge
 COPY agent agent
 COPY schemas schemas
 COPY stiction stiction
 COPY trainer trainer
 COPY bench bench
-RUN pip install --no-cache-dir '.[viewer]' && rerun analytics disable || true
+RUN pip install --no-cache-dir '.[viewer,opcua]' && rerun analytics disable || true
 ENTRYPOINT []

@@ -17,6 +17,8 @@ COMMANDS = {
     "demo": "the main job: simulator, agent and live table in one process, then a summary",
     "sim": "stream simulated noisy loops over Zenoh",
     "agent": "quantify loops streamed over Zenoh and publish reports",
+    "plant": "serve simulated loops over OPC UA, as a plant's control system would",
+    "bridge": "bring a plant's loops from its OPC UA server into the Zenoh key space",
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
     "train": "rebuild every model offline from the simulator",
     "quantify": "stiction reports for historian exports",

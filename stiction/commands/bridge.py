@@ -1,0 +1,133 @@
+"""``stiction bridge opcua``: a plant's loops from its OPC UA server into the Zenoh key space.
+
+Reads the loop file (which nodes are each loop's OP, PV, SP, MV and mode), subscribes to every
+node, samples them on the loop file's grid with the server's source timestamps and publishes
+``SampleBatch`` on ``{prefix}/loop/{id}/samples``.  Bad values are dropped and counted; a loop
+whose node is missing is named in the health message (``{prefix}/bridge/{id}/health``) and the
+others go on; after a server restart it reconnects by itself.  One status line every 10 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import os
+import signal
+import socket
+import sys
+import time
+from pathlib import Path
+
+from schemas import keys
+from schemas.errors import InputError
+from stiction import zenoh_config
+from stiction.commands.sim import DEFAULT_ENDPOINT
+
+log = logging.getLogger(__name__)
+PASSWORD_ENV = "STICTION_OPCUA_PASSWORD"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="source", required=True, metavar="SOURCE")
+    o = sub.add_parser("opcua", help="an OPC UA server (asyncua client)", description=__doc__.replace("``", ""))
+    o.add_argument("--loop-file", type=Path, required=True, help="TOML or YAML: loop id -> op/pv/sp/mv/mode nodes")
+    o.add_argument("--endpoint", help="opc.tcp://HOST:PORT (default: the loop file's [server] endpoint)")
+    o.add_argument(
+        "--security", help="Policy,Mode,certificate,private_key e.g. Basic256Sha256,SignAndEncrypt,c.der,k.pem"
+    )
+    o.add_argument("--user", help="user name (the password comes from the environment, never a flag)")
+    o.add_argument(
+        "--password-env", default=None, help=f"environment variable holding the password (default {PASSWORD_ENV})"
+    )
+    o.add_argument("--bridge-id", help="unique per bridge (default: host-pid)")
+    o.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
+    zenoh_config.add_arguments(o)
+
+
+def settings_from(args: argparse.Namespace, loop_file):
+    from bridge.opcua import BridgeSettings
+
+    server = loop_file.server
+    endpoint = args.endpoint or (server.endpoint if server else None)
+    if not endpoint:
+        raise InputError("no OPC UA endpoint: give --endpoint or [server] endpoint in the loop file")
+    if not endpoint.startswith("opc.tcp://"):
+        raise InputError(f"--endpoint {endpoint!r}: expected opc.tcp://HOST:PORT")
+    user = args.user or (server.user if server else None)
+    env = args.password_env or (server.password_env if server and server.password_env else PASSWORD_ENV)
+    password = os.environ.get(env)
+    if user and password is None:
+        raise InputError(f"user {user!r} given but no password in the environment variable {env}")
+    bridge_id = args.bridge_id or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
+    try:
+        keys.check_id(bridge_id, "bridge id")
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    security = args.security or (server.security if server else None)
+    return BridgeSettings(bridge_id, endpoint, security=security, user=user, password=password)
+
+
+class Status:
+    """One line every ``every_s`` seconds: what an operator wants to see without asking."""
+
+    def __init__(self, every_s: float):
+        self.every_s = every_s
+        self.last_t = time.monotonic()
+        self.last_samples = 0
+
+    def maybe(self, health) -> None:
+        now = time.monotonic()
+        if self.every_s <= 0 or now - self.last_t < self.every_s:
+            return
+        rate = (health.samples_published - self.last_samples) / (now - self.last_t)
+        self.last_t, self.last_samples = now, health.samples_published
+        dropped = ", ".join(f"{k} {v}" for k, v in sorted(health.dropped.items())) or "none"
+        print(
+            f"bridge {health.bridge_id}: {'connected' if health.connected else 'NOT CONNECTED'} to {health.source}, "
+            f"{health.loops_publishing}/{health.loops} loops publishing, {rate:.0f} samples/s, "
+            f"dropped: {dropped}, missing loops: {len(health.loops_missing)}, reconnects {health.reconnects}",
+            flush=True,
+        )
+
+
+def run(args: argparse.Namespace) -> int:
+    import zenoh
+
+    from bridge.loopfile import load
+    from bridge.opcua import OpcuaBridge
+
+    loop_file = load(args.loop_file)
+    settings = settings_from(args, loop_file)
+    if not args.listen and not args.connect and args.config is None:
+        args.listen = [DEFAULT_ENDPOINT]
+    if args.verbose < 2:
+        logging.getLogger("asyncua").setLevel(logging.ERROR)  # its own reconnect chatter; ours says it once
+    status = Status(args.status_every)
+    with zenoh_config.open_from_args(args) as session:
+        put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
+
+        def publish(loop_id: str, payload: bytes) -> None:
+            session.put(keys.samples(args.prefix, loop_id), payload, **put)
+
+        def on_health(health) -> None:
+            session.put(keys.bridge_health(args.prefix, settings.bridge_id), health.model_dump_json().encode(), **put)
+            status.maybe(health)
+
+        bridge = OpcuaBridge(loop_file, settings, publish, on_health)
+        print(
+            f"bridge {settings.bridge_id}: {len(loop_file.loops)} loops from {settings.endpoint} "
+            f"every {loop_file.sample_time_s:g} s to {keys.all_samples(args.prefix)}",
+            flush=True,
+        )
+
+        async def main() -> None:
+            stop = asyncio.Event()
+            loop = asyncio.get_running_loop()
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.add_signal_handler(sig, stop.set)
+            await bridge.run(stop)
+
+        asyncio.run(main())
+    print(f"bridge {settings.bridge_id} stopped: {bridge.health().model_dump_json()}", file=sys.stderr)
+    return 0

@@ -1,0 +1,66 @@
+"""``stiction plant``: simulated loops served over OPC UA, as a plant's control system would serve them.
+
+Writes the loop file a bridge needs (``--loop-file``) once the server is up, then a sample of
+every loop each sample time (1 s of the thesis's loop every 1/--speed s of wall clock).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import signal
+from pathlib import Path
+
+from schemas.errors import InputError
+
+log = logging.getLogger(__name__)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--loops", type=int, default=100)
+    p.add_argument("--endpoint", default="opc.tcp://127.0.0.1:4840", help="where the server listens")
+    p.add_argument("--advertise", help="the endpoint clients use, written into the loop file (default --endpoint)")
+    p.add_argument("--loop-file", type=Path, help="write the bridge's loop file here once the server is up")
+    p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall-clock second (default 1)")
+    p.add_argument("--seed", type=int, default=0)
+
+
+def run(args: argparse.Namespace) -> int:
+    from bridge.loopfile import dumps
+    from sim.opcua_plant import PlantSettings, serve
+
+    if args.loops < 1 or args.speed <= 0:
+        raise InputError("--loops and --speed must be positive")
+    if not args.endpoint.startswith("opc.tcp://"):
+        raise InputError(f"--endpoint {args.endpoint!r}: expected opc.tcp://HOST:PORT")
+    if args.loop_file is not None and not args.loop_file.parent.is_dir():
+        raise InputError(f"--loop-file {args.loop_file}: no such directory {args.loop_file.parent}")
+    if args.verbose < 2:
+        logging.getLogger("asyncua").setLevel(logging.ERROR)
+    settings = PlantSettings(args.endpoint, args.loops, args.seed, args.speed, advertised_endpoint=args.advertise)
+
+    def ready(loop_file) -> None:
+        if args.loop_file is not None:
+            tmp = args.loop_file.with_suffix(args.loop_file.suffix + ".tmp")
+            tmp.write_text(dumps(loop_file))
+            tmp.replace(args.loop_file)  # a bridge waiting for the file never reads half of it
+        print(
+            f"plant: {args.loops} loops on {args.endpoint}"
+            + (f", loop file {args.loop_file}" if args.loop_file else ""),
+            flush=True,
+        )
+
+    async def main() -> int:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        try:
+            return await serve(settings, stop, ready)
+        except OSError as e:
+            raise InputError(f"cannot serve on {args.endpoint}: {e.strerror or e}") from None
+
+    written = asyncio.run(main())
+    log.info("wrote %d samples per loop", written)
+    return 0
