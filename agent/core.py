@@ -34,6 +34,9 @@ class CoreSettings:
     first_report_samples: int = 200
     """A new loop's first report comes once it holds this many samples (a partial window, flagged);
     the window then grows to ``window_samples``."""
+    stagger: bool = True
+    """Spread new loops' first reports over ``report_every_samples`` (by a hash of the loop id), so
+    that thousands of loops started together do not fall due in the same second ever after."""
     max_fill_samples: int | None = None
     """Gaps of the stream up to this many samples are filled by linear interpolation (counted, and
     said in the report); longer gaps restart the window.  None: a tenth of the window."""
@@ -54,6 +57,8 @@ class _Loop:
     process: str | None
     new_since_report: int = 0
     arrived_at: float = 0.0
+    first_at: int = 0
+    """Samples held before this loop's first report."""
     filled: list[tuple[int, int]] | None = None
     """(first seq, samples) of each interpolated gap still in the window."""
 
@@ -127,6 +132,7 @@ class AgentCore:
             if len(self.loops) >= self.settings.max_loops:
                 return self.reject("too_many_loops", loop_id)
             state = self.loops[loop_id] = _Loop(RollingWindow(self.settings.window_samples, batch.ts_s), batch.process)
+            state.first_at = self._first_at(loop_id)
         w = state.window
         if w.next_seq is not None:
             if batch.ts_s != w.ts_s:
@@ -168,16 +174,25 @@ class AgentCore:
         self.samples_filled += missing
         log.debug("%s: %d missing samples from seq %d interpolated", batch.loop_id, missing, start)
 
+    def _first_at(self, loop_id: str) -> int:
+        first = min(self.settings.first_report_samples, self.settings.window_samples)
+        if self.settings.stagger:
+            first += rank("first report", loop_id) % self.settings.report_every_samples
+        return min(first, self.settings.window_samples)
+
     # reports ---------------------------------------------------------------------------------
     def due(self) -> list[tuple[Window, float]]:
         """Owned loops with enough samples (a new loop's first, partial window; then the full window)
         and enough new samples since their last report: (window, arrival time of its last sample)."""
         out = []
         full = self.settings.window_samples
-        first = min(self.settings.first_report_samples, full)
         for loop_id, state in self.loops.items():
             w = state.window
-            if w.count >= first and state.new_since_report >= self.settings.report_every_samples and self.owns(loop_id):
+            if (
+                w.count >= state.first_at
+                and state.new_since_report >= self.settings.report_every_samples
+                and self.owns(loop_id)
+            ):
                 op, pv = w.get()
                 window = Window(
                     loop_id,

@@ -86,6 +86,8 @@ def run_throughput(
                         str(window),
                         "--report-every",
                         str(report_every),
+                        "--first-window",  # the burst fills whole windows: measure the steady state
+                        str(window),
                     ],
                     stdout=subprocess.DEVNULL,
                     stderr=subprocess.PIPE,

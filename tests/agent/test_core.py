@@ -104,7 +104,8 @@ def test_other_agents_loops_are_not_even_parsed():
 
 
 def test_a_new_loop_reports_a_partial_window_first_then_grows_to_the_full_one():
-    core = AgentCore("a1", CoreSettings(window_samples=300, report_every_samples=50, first_report_samples=120))
+    settings = CoreSettings(window_samples=300, report_every_samples=50, first_report_samples=120, stagger=False)
+    core = AgentCore("a1", settings)
     for seq in range(0, 110, 10):
         core.ingest(KEY, _payload(seq), JSON, float(seq))
     assert core.due() == []  # 110 samples: not yet
@@ -133,3 +134,18 @@ def test_a_short_gap_is_interpolated_and_counted_a_long_one_restarts_the_window(
     assert core.loops["L1"].interpolated() == 0
     core.ingest(KEY, _payload(170), JSON, 0.0)  # 6 missing > 5: the window restarts
     assert core.rejected["gap"] == 1 and core.loops["L1"].window.count == 10
+
+
+def test_first_reports_of_loops_started_together_are_spread_over_the_report_interval():
+    core = AgentCore("a1", CoreSettings(window_samples=1000, report_every_samples=60, first_report_samples=100))
+    first_at = {}
+    for seq in range(0, 200, 10):
+        for i in range(300):
+            lid = f"L{i}"
+            core.ingest(f"stiction/demo/loop/{lid}/samples", _payload(seq, loop_id=lid), JSON, 0.0)
+        for w, _ in core.due():
+            first_at.setdefault(w.loop_id, len(w.op))
+    assert len(first_at) == 300
+    sizes = np.array(list(first_at.values()))
+    assert sizes.min() >= 100 and sizes.max() < 170  # within one report interval (and one batch) of 100
+    assert np.bincount((sizes - 100) // 10).max() < 300 / 6 * 1.5  # about evenly spread, not all at once
