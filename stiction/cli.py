@@ -19,6 +19,7 @@ COMMANDS = {
     "agent": "quantify loops streamed over Zenoh and publish reports",
     "plant": "serve simulated loops over OPC UA, as a plant's control system would",
     "bridge": "bring a plant's loops from its OPC UA server into the Zenoh key space",
+    "replay": "stream historian exports into the Zenoh key space at a chosen speed",
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
     "train": "rebuild every model offline from the simulator",
     "quantify": "stiction reports for historian exports",

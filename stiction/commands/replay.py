@@ -1,0 +1,105 @@
+"""``stiction replay``: historian exports streamed into the Zenoh key space at --speed times real time.
+
+Each export (CSV or Parquet; a folder is every export in it) becomes one loop, its id from the
+file name, all loops starting together; ``SampleBatch`` on ``{prefix}/loop/{id}/samples`` with
+the file's own times, so an agent, the viewer and any dashboard run on the plant's recorded data.
+A file that cannot be read is named on one line and the others are replayed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+import time
+from pathlib import Path
+
+from schemas import keys
+from schemas.errors import InputError, StictionError
+from stiction import zenoh_config
+from stiction.commands.exports import report_error
+from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
+
+FIELDS = ("op", "pv", "t", "sp", "mv", "mode")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("paths", nargs="+", type=Path, metavar="PATH", help="historian exports or folders of them")
+    p.add_argument("--speed", type=float, default=1.0, help="recorded seconds per wall-clock second (default 1)")
+    p.add_argument("--rate", type=float, default=1.0, help="messages per second per loop (default 1)")
+    p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
+    p.add_argument("--process", choices=["level"], help="declare every replayed loop the canonical level loop")
+    p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
+    zenoh_config.add_arguments(p)
+
+
+def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
+    """One track per readable export; each unreadable one named on one line (and returned)."""
+    from agent.historian import expand_paths, read_export
+    from agent.pipeline import MIN_SAMPLES
+    from bridge.replay import loop_ids, track
+
+    files = expand_paths(paths)
+    tracks, failed = [], []
+    for path, loop_id in zip(files, loop_ids(files), strict=True):
+        try:
+            export = read_export(path, ts_s)
+            if export.op.size < MIN_SAMPLES:  # the agent could never report it
+                raise InputError(f"{path}: {export.op.size} samples, need at least {MIN_SAMPLES}")
+            tracks.append(track(loop_id, export, process))
+        except StictionError as e:
+            failed.append(report_error(command, path, e))
+    return tracks, failed
+
+
+def publish(schedule, session, prefix: str, stop: threading.Event, rate_hz: float, status_every_s: float = 0.0):
+    """Play ``schedule`` into the key space until it is done or ``stop`` is set."""
+    import zenoh
+
+    from bridge.sampler import encode
+
+    put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
+    started = last_status = time.monotonic()
+    last_samples = 0
+    while not stop.is_set():
+        now = time.monotonic()
+        for batch in schedule.due(now - started):
+            session.put(keys.samples(prefix, batch["loop_id"]), encode(batch), **put)
+        if schedule.done:
+            break
+        if status_every_s > 0 and now - last_status >= status_every_s:
+            rate = (schedule.samples_published - last_samples) / (now - last_status)
+            last_status, last_samples = now, schedule.samples_published
+            share = min(1.0, (now - started) / max(schedule.duration_s, 1e-9))
+            print(
+                f"replay: {len(schedule.tracks)} loops, {share:.0%} played, {rate:.0f} samples/s, "
+                f"{schedule.samples_published} samples sent",
+                flush=True,
+            )
+        stop.wait(max(0.0, started + (int((now - started) * rate_hz) + 1) / rate_hz - time.monotonic()))
+    return schedule.samples_published
+
+
+def run(args: argparse.Namespace) -> int:
+    from bridge.replay import Schedule
+
+    if args.speed <= 0 or args.rate <= 0:
+        raise InputError("--speed and --rate must be positive")
+    tracks, failed = read_tracks(args.paths, args.ts, args.process)
+    if not tracks:
+        raise InputError(f"nothing to replay: {len(failed)} file(s), none readable")
+    for t in tracks:
+        keys.check_id(t.loop_id)
+    if not args.listen and not args.connect and args.config is None:
+        args.listen = [DEFAULT_ENDPOINT]
+    schedule = Schedule(tracks, args.speed)
+    print(
+        f"replay: {len(tracks)} loops to {keys.all_samples(args.prefix)} at {args.speed:g}x, "
+        f"{schedule.duration_s:.0f} s of wall clock" + (f"; {len(failed)} file(s) skipped" if failed else ""),
+        flush=True,
+    )
+    stop = stop_on_signals()
+    with zenoh_config.open_from_args(args) as session:
+        sent = publish(schedule, session, args.prefix, stop, args.rate, args.status_every)
+    print(f"replay: done, {sent} samples of {len(tracks)} loops sent", file=sys.stderr)
+    return 1 if failed else 0

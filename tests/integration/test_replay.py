@@ -1,0 +1,73 @@
+"""``stiction replay`` feeds an agent a plant's recorded loops, as a user runs both: every readable
+export gets its reports, a broken one is named on one line and costs the others nothing."""
+
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import zenoh
+
+from schemas import keys
+from schemas.report import StictionReport
+from stiction import zenoh_config
+from tests.integration.conftest import wait_until
+
+PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+PREFIX = "test/replay"
+
+
+def _start(*argv):
+    return subprocess.Popen(
+        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+
+
+def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path):
+    import pytest
+
+    if not PLANT.is_dir():
+        pytest.skip(f"the measured plant data is not at {PLANT}")
+    files = sorted(PLANT.glob("*.csv"))[:3]
+    for f in files:
+        shutil.copy(f, tmp_path / f.name)
+    (tmp_path / "broken.csv").write_text("op,pv\n1,2\n")
+    endpoint = zenoh_config.free_loopback_endpoint()
+    reports: dict[str, StictionReport] = {}
+    lock = threading.Lock()
+
+    def on_report(sample):
+        r = StictionReport.model_validate_json(sample.payload.to_bytes())
+        with lock:
+            reports[r.loop_id] = r
+
+    procs = {}
+    with zenoh.open(zenoh_config.build([endpoint])) as session:
+        sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
+        try:
+            common = ["--prefix", PREFIX, "--connect", endpoint]
+            procs["agent"] = _start("agent", "--first-window", "200", "--report-every", "100", *common,
+                                    "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+            wait_until(
+                lambda: any(r.ok for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)), 30, "agent"
+            )
+            procs["replay"] = _start("replay", str(tmp_path), "--speed", "2000", "--rate", "4", *common,
+                                     "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+            assert procs["replay"].wait(timeout=60) == 1  # one file could not be read
+            err = procs["replay"].stderr.read()
+            assert "broken.csv" in err and len([x for x in err.splitlines() if "error" in x]) == 1
+            ids = {f.stem for f in files}
+            wait_until(lambda: ids <= set(reports), 30, lambda: f"reports of {ids}, have {set(reports)}")
+            for f in files:
+                r = reports[f.stem]
+                assert r.process.sample_time_s == 10.0 and r.n_samples <= 751 and r.verdict
+            procs["agent"].send_signal(signal.SIGTERM)
+            assert procs["agent"].wait(timeout=20) == 0
+        finally:
+            sub.undeclare()
+            for p in procs.values():
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
