@@ -7,12 +7,15 @@ import logging
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
 from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.agent import open_sink
+from stiction.commands.replay import publish as replay
+from stiction.commands.replay import read_tracks
 from stiction.commands.sim import stop_on_signals
 
 log = logging.getLogger(__name__)
@@ -31,6 +34,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="MODE",
         default="save:stiction-demo.rrd",
         help="save:PATH (default save:stiction-demo.rrd), spawn, serve (web viewer), or none",
+    )
+    p.add_argument(
+        "--replay",
+        action="append",
+        type=Path,
+        metavar="PATH",
+        help="also replay these historian exports (or folders) at --speed beside the simulated loops",
     )
     zenoh_config.add_arguments(p)
 
@@ -59,6 +69,43 @@ def _table(reports, truths, rows: int, elapsed: float, published: int, loops: in
     if len(truths) > rows:
         lines.append(f"showing {rows} of {len(truths)} loops (--rows to show more); the summary covers them all")
     return "\n".join(lines)
+
+
+def _measured_table(reports, labels: dict[str, str | None], rows: int) -> str:
+    """The replayed loops: the data authors' label beside the agent's verdict and S."""
+    lines = [
+        "",
+        f"measured loops (replayed)  {sum(i in reports for i in labels)} of {len(labels)} reported",
+        f"{'loop':44s} {'label':>10s} {'verdict':>15s} {'S +- se %':>14s} {'period s':>8s}",
+    ]
+    for loop_id in sorted(labels)[:rows]:
+        r = reports.get(loop_id)
+        label = labels[loop_id] or "-"
+        if r is None:
+            lines.append(f"{loop_id[:44]:44s} {label:>10s} {'waiting':>15s}")
+            continue
+        s = f"{r.s_pct:.2f} +- {r.s_se_pct:.2f}" if r.s_pct is not None and r.s_se_pct is not None else "-"
+        period = f"{r.period_s:8.0f}" if r.period_s else f"{'-':>8s}"
+        partial = " (partial window)" if r.partial else ""
+        lines.append(f"{loop_id[:44]:44s} {label:>10s} {r.verdict:>15s} {s:>14s} {period}{partial}")
+    if len(labels) > rows:
+        lines.append(f"showing {rows} of {len(labels)} measured loops")
+    return "\n".join(lines)
+
+
+def summarise_measured(reports, labels: dict[str, str | None]) -> dict:
+    got = {i: reports[i] for i in labels if i in reports}
+    verdicts: dict[str, int] = {}
+    for r in got.values():
+        verdicts[r.verdict] = verdicts.get(r.verdict, 0) + 1
+    labelled = [(r.verdict == "stiction", labels[i] == "stiction") for i, r in got.items() if labels[i]]
+    return {
+        "loops": len(labels),
+        "loops_reported": len(got),
+        "verdicts": verdicts,
+        "labelled": len(labelled),
+        "agree_with_label": sum(called == sticky for called, sticky in labelled),
+    }
 
 
 def summarise(reports, truths, wall_s: float, published: int, health) -> dict:
@@ -99,9 +146,29 @@ def summarise(reports, truths, wall_s: float, published: int, health) -> dict:
     }
 
 
+def _measured(paths) -> tuple[list, dict[str, str | None]]:
+    """Replay tracks of ``paths``, and each loop's label where a ``loops.json`` gives one."""
+    if not paths:
+        return [], {}
+    from agent.historian import expand_paths
+    from bench.measured import labels as read_labels
+    from bridge.replay import loop_ids
+
+    tracks, failed = read_tracks(paths, None, None, "demo")
+    if not tracks:
+        raise InputError(f"--replay: nothing to replay ({len(failed)} file(s), none readable)")
+    known: dict[str, dict] = {}
+    for p in paths:
+        known.update(read_labels(p if p.is_dir() else p.parent))
+    files = expand_paths(paths)
+    by_id = dict(zip(loop_ids(files), files, strict=True))
+    return tracks, {t.loop_id: known.get(by_id[t.loop_id].stem, {}).get("label") for t in tracks}
+
+
 def run(args: argparse.Namespace) -> int:
 
     from agent.service import AgentService, AgentSettings
+    from bridge.replay import Schedule
     from sim.publisher import PublisherSettings
     from sim.publisher import run as publish
     from stiction.dashboard import Dashboard
@@ -116,9 +183,12 @@ def run(args: argparse.Namespace) -> int:
     )
     published = [0]
     tty = sys.stdout.isatty()
+    tracks, labels = _measured(args.replay or [])
     print(
-        f"stiction demo: {args.loops} loops at {args.speed:g}x real time for {args.seconds:g} s, "
-        f"Zenoh on {endpoint}; the agent reports once a loop has a full 1000-sample window",
+        f"stiction demo: {args.loops} loops at {args.speed:g}x real time for {args.seconds:g} s"
+        + (f", {len(tracks)} measured loops replayed beside them" if tracks else "")
+        + f", Zenoh on {endpoint}; a loop's first report comes from a partial 200-sample window, "
+        "then from full 1000-sample windows",
         flush=True,
     )
     sink = open_sink(None if args.rerun == "none" else args.rerun)
@@ -151,6 +221,9 @@ def run(args: argparse.Namespace) -> int:
             ),
             threading.Thread(target=agent.run, args=(stop,), daemon=True),
         ]
+        if tracks:
+            schedule = Schedule(tracks, args.speed)
+            threads.append(threading.Thread(target=replay, args=(schedule, sim_s, args.prefix, stop, 4.0), daemon=True))
         started = time.monotonic()
         for t in threads:
             t.start()
@@ -161,6 +234,8 @@ def run(args: argparse.Namespace) -> int:
                 elapsed = time.monotonic() - started
                 reports, truths = dashboard.snapshot()
                 text = _table(reports, truths, args.rows, elapsed, published[0], args.loops)
+                if tracks:
+                    text += "\n" + _measured_table(reports, labels, args.rows)
                 print(("\033[2J\033[H" if tty else "\n") + text, flush=True)
                 if elapsed >= args.seconds:
                     break
@@ -197,6 +272,13 @@ def run(args: argparse.Namespace) -> int:
             f"p99 {s['latency_p99_s'] * 1e3:.0f} ms"
         )
     print(f"  rejected messages: {s['rejected'] or 'none'}")
+    if tracks:
+        m = summarise_measured(reports, labels)
+        verdicts = ", ".join(f"{n} {v.replace('_', ' ')}" for v, n in sorted(m["verdicts"].items())) or "none yet"
+        print(
+            f"  measured loops: {m['loops_reported']} of {m['loops']} reported ({verdicts}); the verdict agrees "
+            f"with the data authors' label on {m['agree_with_label']} of {m['labelled']} labelled"
+        )
     if args.rerun.startswith("save:"):
         print(
             f"  rerun recording of the OP-PV loops before and after denoising: {args.rerun[5:]} "

@@ -71,3 +71,21 @@ def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path
                 if p.poll() is None:
                     p.kill()
                     p.wait()
+
+
+def test_the_demo_shows_replayed_measured_loops_beside_the_simulated_ones(tmp_path):
+    import pytest
+
+    if not PLANT.is_dir():
+        pytest.skip(f"the measured plant data is not at {PLANT}")
+    for f in sorted(PLANT.glob("*.csv"))[:3]:
+        shutil.copy(f, tmp_path / f.name)
+    (tmp_path / "loops.json").write_text((PLANT.parent / "loops.json").read_text())
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.cli", "demo", "--loops", "4", "--seconds", "14", "--speed", "500",
+         "--replay", str(tmp_path), "--rerun", "none"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "measured loops (replayed)" in done.stdout
+    assert "measured loops: 3 of 3 reported" in done.stdout and "of 3 labelled" in done.stdout
