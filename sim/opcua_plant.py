@@ -1,6 +1,6 @@
 """``stiction plant``: simulated loops served by an OPC UA server, as a plant's control system serves them.
 
-Each loop is a folder ``{loop id}`` with the variables OP, PV, SP, MV and MODE (1: auto), node
+Each loop is a folder ``plant-00000``... with the variables OP, PV, SP, MV and MODE (1: auto), node
 ids ``ns={ns};s={loop id}.OP``.  Sample ``k`` of every loop is written at wall-clock time
 ``t_k = k * sample_time_s`` (a grid of the Unix clock) with that time as its source timestamp,
 so a bridge sampling on the same grid reads each sample exactly once.  ``speed`` compresses
@@ -52,7 +52,7 @@ async def serve(settings: PlantSettings, stop: asyncio.Event, ready: Callable[[L
     from asyncua import Server, ua
 
     specs = loop_specs(settings.loops, settings.seed)
-    ids = list(specs)
+    ids = [f"plant-{i:05d}" for i in range(len(specs))]  # not the simulator's sim-*: both may run on one prefix
     stream = LoopStream(list(specs.values()))
     if settings.warmup_s > 0:
         stream.next(int(settings.warmup_s / stream.ts_s))

@@ -70,3 +70,14 @@ def test_the_image_copies_every_package_the_project_installs():
     copied = {line.split()[1] for line in (ROOT / "Dockerfile").read_text().splitlines() if line.startswith("COPY ")}
     missing = sorted(p for p in packages if p not in copied and (ROOT / p).is_dir())
     assert not missing, f"Dockerfile does not COPY {missing}: the image's stiction would fail to import them"
+
+
+def test_the_bridge_reads_the_loop_file_the_plant_writes_once_healthy():
+    services = yaml.safe_load(COMPOSE.read_text())["services"]
+    plant, bridge = services["plant"]["command"], services["bridge"]["command"]
+    written = plant[plant.index("--loop-file") + 1]
+    assert bridge[bridge.index("--loop-file") + 1] == written
+    assert services["plant"]["healthcheck"]["test"][-1] == written
+    assert services["bridge"]["depends_on"]["plant"]["condition"] == "service_healthy"
+    advertised = plant[plant.index("--advertise") + 1]
+    assert advertised.startswith("opc.tcp://plant:")  # the service name: where the bridge finds the server

@@ -65,7 +65,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
     try:
         wait_until(served.exists, 60, "the plant's loop file")
         plan = load(served)
-        broken = plan.loops["sim-00000"].model_copy(update={"pv": "ns=2;s=no-such-loop.PV"})
+        broken = plan.loops["plant-00000"].model_copy(update={"pv": "ns=2;s=no-such-loop.PV"})
         loop_file = tmp_path / "loops.toml"
         loop_file.write_text(dumps(plan.model_copy(update={"loops": plan.loops | {"broken": broken}})))
 
@@ -106,7 +106,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
             served_ids = set(plan.loops)
             wait_until(lambda: served_ids <= set(reports), 90, lambda: f"a report of every loop, have {set(reports)}")
             assert "broken" not in reports
-            first = reports["sim-00001"][0][0]
+            first = reports["plant-00001"][0][0]
             assert first.partial and first.n_samples >= 100 and first.process.sample_time_s == pytest.approx(0.1)
             wait_until(lambda: health["bridge"] and health["bridge"][-1]["loops_missing"], 10, "the missing loop named")
             assert "no-such-loop" in health["bridge"][-1]["loops_missing"]["broken"]
@@ -128,7 +128,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
             )
             assert "gap" not in health["agent"][-1]["rejected"]  # every window kept, every gap counted
             assert health["bridge"][-1]["reconnects"] == 1
-            resumed = reports["sim-00001"][-1][0]
+            resumed = reports["plant-00001"][-1][0]
             assert resumed.interpolated_samples > 0 and resumed.n_samples > first.n_samples
             for s in subs:
                 s.undeclare()
