@@ -44,7 +44,9 @@ class Sampler:
     def __init__(self, loops: dict[str, LoopNodes], ts_s: float, settle_s: float | None = None):
         self.loops = loops
         self.ts_s = float(ts_s)
-        self.settle_s = self.ts_s + 0.5 if settle_s is None else float(settle_s)
+        # the clock offset already absorbs the least delay of a notification (the publishing cycle's
+        # phase); settle_s covers the jitter around it
+        self.settle_s = 0.5 * self.ts_s + 0.5 if settle_s is None else float(settle_s)
         self._changes: dict[tuple[str, str], list[tuple[float, float]]] = {}
         self._k_next: dict[str, int] = {}
         self._k0: dict[str, int] = {}

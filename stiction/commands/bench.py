@@ -44,6 +44,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--agents", type=int, default=1)
     t.add_argument("--report-every", type=int, default=60, help="samples between a loop's reports")
     t.add_argument("--json", action="store_true")
+    b = sub.add_parser("bridge", help="OPC UA plant server -> bridge -> subscriber: samples lost, latency, CPU")
+    b.add_argument("--loops", type=int, default=1000)
+    b.add_argument("--seconds", type=float, default=60.0, help="length of the steady phase, wall clock")
+    b.add_argument("--no-restart", action="store_true", help="skip the server restart")
+    b.add_argument("--json", action="store_true")
     d = sub.add_parser("diagnose", help="per cause of the catalogue: named, parameter error, gain, fs/fd, time")
     d.add_argument("--loops", type=int, default=20, help="generated loops per cause")
     d.add_argument("--causes", nargs="+", metavar="CAUSE", help="only these causes (default: all, and none)")
@@ -113,6 +118,8 @@ def run(args: argparse.Namespace) -> int:
         _accuracy(args)
     elif args.bench == "throughput":
         _throughput(args)
+    elif args.bench == "bridge":
+        _bridge(args)
     elif args.bench == "diagnose":
         _diagnose(args)
     elif args.bench == "measured":
@@ -281,3 +288,29 @@ def _throughput(args) -> None:
         f"  agent CPU {', '.join(f'{c:.0%}' for c in f['agent_cpu_share'])} of a core, "
         f"peak RSS {f['agent_peak_rss_mb']:.0f} MB"
     )
+
+
+def _bridge(args) -> None:
+    from bench.bridge import run_bridge_bench
+
+    if args.loops < 1 or args.seconds <= 0:
+        raise InputError("--loops and --seconds must be positive")
+    f = run_bridge_bench(args.loops, args.seconds, restart=not args.no_restart) | {"host": _machine()}
+    if args.json:
+        _print_json(f)
+        return
+    print(f"{f['loops']} loops at 1 Hz from an OPC UA server through one bridge, {f['seconds']:.0f} s steady")
+    print(
+        f"  samples received {f['samples_received']} ({f['samples_per_s']:.0f}/s), lost {f['samples_lost']}, "
+        f"loops seen {f['loops_seen']}"
+    )
+    print(f"  latency grid time -> subscriber: p50 {f['latency_p50_s']:.2f} s, p99 {f['latency_p99_s']:.2f} s")
+    print(
+        f"  bridge CPU {f['bridge_cores']:.0%} of a core, peak RSS {f['bridge_peak_rss_mb']:.0f} MB "
+        f"(plant server {f['plant_cores']:.0%})"
+    )
+    if "restart_resume_s" in f:
+        print(
+            f"  server restart: down {f['restart_server_down_s']:.1f} s; every loop's samples back "
+            f"{f['restart_resume_s']:.1f} s after the server was up (median {f['restart_resume_p50_s']:.1f} s)"
+        )

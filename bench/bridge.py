@@ -1,0 +1,150 @@
+"""``stiction bench bridge``: a simulated plant served over OPC UA, one bridge process, a subscriber.
+
+Three processes on loopback, as in a plant: ``stiction plant`` (the OPC UA server, writing a
+sample of every loop each second), ``stiction bridge opcua`` and this process counting what
+arrives on ``{prefix}/loop/*/samples``.  Measured over the steady phase: samples per loop
+against the grid points that passed (lost = missing seq), latency from a sample's grid time to
+its arrival, the bridge's CPU (cores) and peak memory.  Then the server is stopped and started
+again: seconds from the new server being up to the bridge's first sample of every loop.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bench.throughput import _proc_stats
+from stiction import zenoh_config
+
+PREFIX = "bench/bridge"
+
+
+def _start(*argv: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "stiction.cli", *argv],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait(condition, timeout_s: float, what: str) -> None:
+    tick = threading.Event()
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"bench bridge: timed out waiting for {what}")
+        tick.wait(0.1)
+
+
+def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = True) -> dict:
+    import zenoh
+
+    endpoint = zenoh_config.free_loopback_endpoint()
+    opc = f"opc.tcp://127.0.0.1:{_free_port()}"
+    arrivals: dict[str, list[tuple[int, int, float, float]]] = {}  # loop -> (seq, n, t_last, arrival)
+    lock = threading.Lock()
+
+    def on_samples(sample) -> None:
+        b = json.loads(sample.payload.to_bytes())
+        now = time.time()
+        with lock:
+            arrivals.setdefault(b["loop_id"], []).append(
+                (b["seq"], len(b["op"]), b["t0_s"] + (len(b["op"]) - 1) * b["ts_s"], now)
+            )
+
+    with tempfile.TemporaryDirectory() as tmp, zenoh.open(zenoh_config.build([endpoint])) as session:
+        loop_file = Path(tmp) / "loops.toml"
+        plant_args = ["plant", "--loops", str(loops), "--endpoint", opc, "--loop-file", str(loop_file)]
+        procs = {"plant": _start(*plant_args)}
+        sub = session.declare_subscriber(f"{PREFIX}/loop/*/samples", on_samples)
+        try:
+            _wait(loop_file.exists, 120, "the plant server")
+            procs["bridge"] = _start(
+                "bridge", "opcua", "--loop-file", str(loop_file), "--prefix", PREFIX, "--connect", endpoint,
+                "--listen", zenoh_config.free_loopback_endpoint(), "--status-every", "0",
+            )  # fmt: skip
+            _wait(lambda: len(arrivals) == loops, 120, f"samples of all {loops} loops")
+            time.sleep(3.0)  # past the subscription's first burst
+            cpu0 = {k: _proc_stats(p.pid)[0] for k, p in procs.items()}
+            t0 = time.time()
+            time.sleep(seconds)
+            t1 = time.time()
+            cpu = {k: (_proc_stats(p.pid)[0] - cpu0[k]) / (t1 - t0) for k, p in procs.items()}
+            bridge_rss = _proc_stats(procs["bridge"].pid)[1]
+            with lock:
+                steady = {k: [a for a in v if t0 <= a[3] <= t1] for k, v in arrivals.items()}
+            figures = _steady(steady, loops, t1 - t0)
+            figures |= {"loops": loops, "seconds": t1 - t0, "bridge_cores": cpu["bridge"], "plant_cores": cpu["plant"]}
+            figures["bridge_peak_rss_mb"] = bridge_rss
+            if restart:
+                figures |= _restart(procs, plant_args, loop_file, arrivals, lock, loops)
+        finally:
+            sub.undeclare()
+            for p in procs.values():
+                if p.poll() is None:
+                    p.terminate()
+            for p in procs.values():
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+    return figures
+
+
+def _steady(steady: dict, loops: int, wall_s: float) -> dict:
+    lost, received, latency = 0, 0, []
+    for batches in steady.values():
+        batches = sorted(batches)
+        received += sum(n for _, n, _, _ in batches)
+        for (s0, n0, _, _), (s1, _, _, _) in zip(batches, batches[1:], strict=False):
+            lost += max(0, s1 - (s0 + n0))
+        latency += [arrival - t_last for _, _, t_last, arrival in batches]
+    lat = np.array(latency)
+    return {
+        "samples_received": received,
+        "samples_per_s": received / wall_s,
+        "samples_lost": lost,
+        "loops_seen": len(steady),
+        "latency_p50_s": float(np.percentile(lat, 50)) if lat.size else None,
+        "latency_p99_s": float(np.percentile(lat, 99)) if lat.size else None,
+    }
+
+
+def _restart(procs, plant_args, loop_file: Path, arrivals, lock, loops: int) -> dict:
+    """Stop the server, start it again, time the bridge's first sample of every loop after it is up."""
+    procs["plant"].terminate()
+    procs["plant"].wait(timeout=30)
+    down = time.time()
+    loop_file.unlink()
+    procs["plant"] = _start(*plant_args)
+    _wait(loop_file.exists, 120, "the restarted plant server")
+    up = time.time()
+
+    def resumed() -> bool:
+        with lock:
+            return all(v[-1][3] > up for v in arrivals.values()) and len(arrivals) == loops
+
+    _wait(resumed, 60, "samples of every loop after the restart")
+    with lock:
+        first_after = [next(a[3] for a in v if a[3] > up) for v in arrivals.values()]
+    return {
+        "restart_server_down_s": up - down,
+        "restart_resume_s": max(first_after) - up,
+        "restart_resume_p50_s": float(np.median(np.array(first_after) - up)),
+    }
