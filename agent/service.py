@@ -74,7 +74,9 @@ class AgentService:
         self._alive_lock = threading.Lock()
         self._started = time.monotonic()
         self._last_health = 0.0
+        self._rate_mark = (time.monotonic(), 0, 0)  # (time, samples, reports) at the last health message
         self._declared: list = []
+        self.on_health = None  # optional: called with every health message (the command's status line)
         self.sink = sink  # optional viewer: log_report(report, window, details, truth)
         self.truths: dict[str, tuple[float, float]] = {}
         self.sink_errors = 0
@@ -196,9 +198,15 @@ class AgentService:
                         log.exception("rerun sink failed; reports go on without it")
         self.core.completed(len(arrivals), arrivals, time.monotonic())
 
-    def health(self) -> AgentHealth:
+    def health(self, advance_rates: bool = False) -> AgentHealth:
+        """The counters; rates are over the time since the last published health message."""
         p50, p99 = self.core.latency_percentiles()
         owned = sum(1 for lid in self.core.loops if self.core.owns(lid))
+        t0, samples0, reports0 = self._rate_mark
+        now = time.monotonic()
+        span = now - t0
+        if advance_rates:
+            self._rate_mark = (now, self.core.samples, self.core.reports)
         return AgentHealth(
             agent_id=self.settings.agent_id,
             uptime_s=time.monotonic() - self._started,
@@ -211,14 +219,20 @@ class AgentService:
             latency_p50_s=p50,
             latency_p99_s=p99,
             pending_loops=self.core.pending(),
+            samples_per_s=(self.core.samples - samples0) / span if span > 0 else None,
+            reports_per_s=(self.core.reports - reports0) / span if span > 0 else None,
             gaps_filled=self.core.gaps_filled,
             samples_filled=self.core.samples_filled,
         )
 
-    def publish_health(self) -> None:
+    def publish_health(self) -> AgentHealth:
         self._last_health = time.monotonic()
+        health = self.health(advance_rates=True)
         self.session.put(
             keys.agent_health(self.settings.prefix, self.settings.agent_id),
-            self.health().model_dump_json().encode(),
+            health.model_dump_json().encode(),
             encoding=self._zenoh.Encoding.APPLICATION_JSON,
         )
+        if self.on_health is not None:
+            self.on_health(health)
+        return health

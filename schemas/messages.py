@@ -74,6 +74,8 @@ class AgentHealth(BaseModel):
     latency_p50_s: float | None = Field(description="from a window's last sample arriving to its report")
     latency_p99_s: float | None
     pending_loops: int
+    samples_per_s: float | None = Field(None, description="samples ingested per second since the last health message")
+    reports_per_s: float | None = Field(None, description="reports published per second since the last health message")
     gaps_filled: int = Field(0, description="short gaps in loops' streams filled by interpolation")
     samples_filled: int = Field(0, description="samples interpolated across those gaps")
 

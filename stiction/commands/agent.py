@@ -8,9 +8,11 @@ import os
 import socket
 from pathlib import Path
 
+from schemas import keys
 from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
+from stiction.status import Every, agent_line
 
 log = logging.getLogger(__name__)
 
@@ -26,6 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a new loop's first report once it holds this many samples, flagged partial (default 200)",
     )
     p.add_argument("--report-every", type=int, default=60, help="new samples between a loop's reports (default 60)")
+    p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")
     zenoh_config.add_arguments(p)
 
@@ -68,7 +71,16 @@ def run(args: argparse.Namespace) -> int:
     stop = stop_on_signals()
     sink = open_sink(args.rerun)
     with zenoh_config.open_from_args(args) as session:
-        service = AgentService(settings, session, sink=sink).start()
+        service = AgentService(settings, session, sink=sink)
+        every = Every(args.status_every)
+        service.on_health = lambda h: print(agent_line(h), flush=True) if every() else None
+        print(
+            f"agent {agent_id}: listening on {keys.all_samples(args.prefix)}; a new loop's first report after "
+            f"{args.first_window} samples (partial), then every {args.report_every} samples; "
+            f"a status line every {args.status_every:g} s",
+            flush=True,
+        )
+        service.start()
         try:
             service.run(stop)
         finally:

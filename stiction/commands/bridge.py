@@ -23,6 +23,7 @@ from schemas import keys
 from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.sim import DEFAULT_ENDPOINT
+from stiction.status import Every, bridge_line
 
 log = logging.getLogger(__name__)
 PASSWORD_ENV = "STICTION_OPCUA_PASSWORD"
@@ -69,26 +70,19 @@ def settings_from(args: argparse.Namespace, loop_file):
 
 
 class Status:
-    """One line every ``every_s`` seconds: what an operator wants to see without asking."""
+    """The bridge's status line: its health, with the publishing rate since the last line."""
 
     def __init__(self, every_s: float):
-        self.every_s = every_s
-        self.last_t = time.monotonic()
-        self.last_samples = 0
+        self.every = Every(every_s)
+        self.last_t, self.last_samples = time.monotonic(), 0
 
     def maybe(self, health) -> None:
-        now = time.monotonic()
-        if self.every_s <= 0 or now - self.last_t < self.every_s:
+        if not self.every():
             return
-        rate = (health.samples_published - self.last_samples) / (now - self.last_t)
+        now = time.monotonic()
+        rate = (health.samples_published - self.last_samples) / max(now - self.last_t, 1e-9)
         self.last_t, self.last_samples = now, health.samples_published
-        dropped = ", ".join(f"{k} {v}" for k, v in sorted(health.dropped.items())) or "none"
-        print(
-            f"bridge {health.bridge_id}: {'connected' if health.connected else 'NOT CONNECTED'} to {health.source}, "
-            f"{health.loops_publishing}/{health.loops} loops publishing, {rate:.0f} samples/s, "
-            f"dropped: {dropped}, missing loops: {len(health.loops_missing)}, reconnects {health.reconnects}",
-            flush=True,
-        )
+        print(bridge_line(health, rate), flush=True)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,9 +6,12 @@ import argparse
 import logging
 import signal
 import threading
+import time
 
+from schemas import keys
 from schemas.errors import InputError
 from stiction import zenoh_config
+from stiction.status import Every
 
 log = logging.getLogger(__name__)
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
@@ -20,6 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per second (default 1: real time)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration-s", type=float, help="stop after this much simulated time")
+    p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(p)
 
 
@@ -49,7 +53,26 @@ def run(args: argparse.Namespace) -> int:
     )
     log.info("settings: %s", settings)
     stop = stop_on_signals()
+    every, mark = Every(args.status_every), [time.monotonic(), 0]
+
+    def status(published: int) -> None:
+        if every():
+            now = time.monotonic()
+            rate = (published - mark[1]) * args.loops / (now - mark[0])
+            mark[:] = [now, published]
+            print(
+                f"sim: {args.loops} loops, {rate:.0f} samples/s ({args.speed:g}x real time), "
+                f"{published} samples per loop so far",
+                flush=True,
+            )
+
     with zenoh_config.open_from_args(args) as session:
-        published = publish(settings, session, stop)
+        print(
+            f"sim: {args.loops} loops on {keys.all_samples(args.prefix)} at {args.speed:g}x real time, "
+            f"{', '.join(args.listen or args.connect or [str(args.config)])}; "
+            f"a status line every {args.status_every:g} s",
+            flush=True,
+        )
+        published = publish(settings, session, stop, on_tick=status)
     log.info("published %d samples per loop", published)
     return 0
