@@ -26,10 +26,10 @@ from stiction import zenoh_config
 PREFIX = "bench/bridge"
 
 
-def _start(*argv: str) -> subprocess.Popen:
+def _start(*argv: str, stdout=subprocess.DEVNULL) -> subprocess.Popen:
     return subprocess.Popen(
         [sys.executable, "-m", "stiction.cli", *argv],
-        stdout=subprocess.DEVNULL,
+        stdout=stdout,
         stderr=subprocess.PIPE,
         text=True,
     )
@@ -70,8 +70,10 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
 
     with tempfile.TemporaryDirectory() as tmp, zenoh.open(zenoh_config.build([endpoint])) as session:
         loop_file = Path(tmp) / "loops.toml"
-        plant_args = ["plant", "--loops", str(loops), "--endpoint", opc, "--loop-file", str(loop_file)]
-        procs = {"plant": _start(*plant_args)}
+        plant_args = ["plant", "--loops", str(loops), "--endpoint", opc, "--loop-file", str(loop_file),
+                      "--status-every", "5"]  # fmt: skip
+        plant_log = open(Path(tmp) / "plant.log", "w")  # noqa: SIM115 - closed with the folder below
+        procs = {"plant": _start(*plant_args, stdout=plant_log)}
         sub = session.declare_subscriber(f"{PREFIX}/loop/*/samples", on_samples)
         try:
             _wait(loop_file.exists, 120, "the plant server")
@@ -92,6 +94,7 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
             figures = _steady(steady, loops, t1 - t0)
             figures |= {"loops": loops, "seconds": t1 - t0, "bridge_cores": cpu["bridge"], "plant_cores": cpu["plant"]}
             figures["bridge_peak_rss_mb"] = bridge_rss
+            figures["plant_status"] = _last_status(Path(tmp) / "plant.log")
             if restart:
                 figures |= _restart(procs, plant_args, loop_file, arrivals, lock, loops)
         finally:
@@ -105,6 +108,12 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
                 except subprocess.TimeoutExpired:
                     p.kill()
     return figures
+
+
+def _last_status(log: Path) -> str | None:
+    """The plant's last status line: did the simulated server keep up (samples skipped)?"""
+    lines = [x for x in log.read_text().splitlines() if "samples written" in x]
+    return lines[-1] if lines else None
 
 
 def _steady(steady: dict, loops: int, wall_s: float) -> dict:
@@ -132,7 +141,7 @@ def _restart(procs, plant_args, loop_file: Path, arrivals, lock, loops: int) -> 
     procs["plant"].wait(timeout=30)
     down = time.time()
     loop_file.unlink()
-    procs["plant"] = _start(*plant_args)
+    procs["plant"] = _start(*plant_args, stdout=subprocess.DEVNULL)
     _wait(loop_file.exists, 120, "the restarted plant server")
     up = time.time()
 

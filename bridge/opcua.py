@@ -40,6 +40,9 @@ class BridgeSettings:
     request_timeout_s: float = 4.0
     health_every_s: float = 2.0
     max_backoff_s: float = 2.0
+    watchdog_s: float = 10.0
+    """asyncua's own liveness probe: its interval and timeout.  A server that closes the socket is
+    noticed at once; this only bounds how long a silent, half-open connection goes unnoticed."""
 
 
 class OpcuaBridge:
@@ -62,6 +65,7 @@ class OpcuaBridge:
         self._sessions = 0
         self._started = time.monotonic()
         self._by_node: dict = {}
+        self._last_reading = 0.0  # monotonic time of the last notification
 
     # the three tasks -------------------------------------------------------------------------------
     async def run(self, stop: asyncio.Event) -> None:
@@ -92,7 +96,9 @@ class OpcuaBridge:
         from asyncua import Client
 
         s = self.settings
-        client = Client(s.endpoint, timeout=s.request_timeout_s)
+        # asyncua's own watchdog probes the server every watchdog_intervall with that as the timeout: at its
+        # default of 1 s a busy server (thousands of loops) is declared lost while it is sending values
+        client = Client(s.endpoint, timeout=s.request_timeout_s, watchdog_intervall=s.watchdog_s)
         if s.user:
             client.set_user(s.user)
         if s.password:
@@ -110,8 +116,10 @@ class OpcuaBridge:
             drain = asyncio.create_task(self._drain(sub))
             try:
                 while not stop.is_set() and not drain.done():
-                    # a dead server does not always close the socket: ask it something every second
-                    await asyncio.wait_for(client.nodes.server_state.read_value(), s.request_timeout_s)
+                    # a dead server does not always close the socket: where no value came for a while,
+                    # ask it something (a busy server that keeps sending values is alive, if slow to answer)
+                    if time.monotonic() - self._last_reading > 2 * max(1.0, self.loop_file.sample_time_s):
+                        await asyncio.wait_for(client.nodes.server_state.read_value(), s.watchdog_s)
                     await _wait(stop, 1.0)
             finally:
                 drain.cancel()
@@ -167,6 +175,7 @@ class OpcuaBridge:
                 log.warning("OPC UA subscription status: %s", event.notification.Status)
 
     def _reading(self, event) -> None:
+        self._last_reading = time.monotonic()
         value = event.data.monitored_item.Value
         status = getattr(value, "StatusCode", None)
         good = status is None or status.is_good() or not status.is_bad()  # uncertain values are kept

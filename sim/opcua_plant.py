@@ -47,8 +47,15 @@ def loop_file(settings: PlantSettings, ids: list[str], ns: int, sample_time_s: f
     )
 
 
-async def serve(settings: PlantSettings, stop: asyncio.Event, ready: Callable[[LoopFile], None] | None = None) -> int:
-    """Serve until ``stop``; returns the samples written per loop."""
+async def serve(
+    settings: PlantSettings,
+    stop: asyncio.Event,
+    ready: Callable[[LoopFile], None] | None = None,
+    status: Callable[[dict], None] | None = None,
+) -> int:
+    """Serve until ``stop``; returns the samples written per loop.  ``status`` gets, after every
+    sample, the counts so far: samples written, grid points skipped (the server fell behind) and
+    the last write pass in seconds."""
     from asyncua import Server, ua
 
     specs = loop_specs(settings.loops, settings.seed)
@@ -70,7 +77,7 @@ async def serve(settings: PlantSettings, stop: asyncio.Event, ready: Callable[[L
         for role, name in VARIABLES.items():
             var = await folder.add_variable(ua.NodeId(f"{loop_id}.{name}", ns), name, 1.0 if role == "mode" else 0.0)
             nodes[role].append(var.nodeid)
-    written = 0
+    written = skipped = 0
     async with server:
         if ready is not None:
             ready(loop_file(settings, ids, ns, dt_s))
@@ -85,7 +92,10 @@ async def serve(settings: PlantSettings, stop: asyncio.Event, ready: Callable[[L
                 except TimeoutError:
                     pass
             if time.time() - k * dt_s > 5 * dt_s:  # fell behind (a stalled machine): skip, as a plant would
-                k = math.floor(time.time() / dt_s)
+                now_k = math.floor(time.time() / dt_s)
+                skipped += now_k - k
+                k = now_k
+            started = time.monotonic()
             chunk = stream.next(1)
             stamp = dt.datetime.fromtimestamp(k * dt_s, dt.UTC)
             for role, values in (("op", chunk.op), ("pv", chunk.pv), ("sp", chunk.sp), ("mv", chunk.mv)):
@@ -94,4 +104,6 @@ async def serve(settings: PlantSettings, stop: asyncio.Event, ready: Callable[[L
                     await server.write_attribute_value(node_id, dv)
             written += 1
             k += 1
+            if status is not None:
+                status({"written": written, "skipped": skipped, "pass_s": time.monotonic() - started})
     return written

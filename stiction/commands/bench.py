@@ -309,6 +309,7 @@ def _bridge(args) -> None:
         f"  bridge CPU {f['bridge_cores']:.0%} of a core, peak RSS {f['bridge_peak_rss_mb']:.0f} MB "
         f"(plant server {f['plant_cores']:.0%})"
     )
+    print(f"  {f['plant_status'] or 'plant: no status line'}")
     if "restart_resume_s" in f:
         print(
             f"  server restart: down {f['restart_server_down_s']:.1f} s; every loop's samples back "

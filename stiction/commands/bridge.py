@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.listen and not args.connect and args.config is None:
         args.listen = [DEFAULT_ENDPOINT]
     if args.verbose < 2:
-        logging.getLogger("asyncua").setLevel(logging.ERROR)  # its own reconnect chatter; ours says it once
+        logging.getLogger("asyncua").setLevel(logging.CRITICAL)  # its own reconnect chatter; ours says it once
     status = Status(args.status_every)
     with zenoh_config.open_from_args(args) as session:
         put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}

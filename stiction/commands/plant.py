@@ -13,6 +13,7 @@ import signal
 from pathlib import Path
 
 from schemas.errors import InputError
+from stiction.status import Every
 
 log = logging.getLogger(__name__)
 
@@ -24,6 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loop-file", type=Path, help="write the bridge's loop file here once the server is up")
     p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall-clock second (default 1)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -37,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     if args.loop_file is not None and not args.loop_file.parent.is_dir():
         raise InputError(f"--loop-file {args.loop_file}: no such directory {args.loop_file.parent}")
     if args.verbose < 2:
-        logging.getLogger("asyncua").setLevel(logging.ERROR)
+        logging.getLogger("asyncua").setLevel(logging.CRITICAL)
     settings = PlantSettings(args.endpoint, args.loops, args.seed, args.speed, advertised_endpoint=args.advertise)
 
     def ready(loop_file) -> None:
@@ -51,13 +53,23 @@ def run(args: argparse.Namespace) -> int:
             flush=True,
         )
 
+    every = Every(args.status_every)
+
+    def status(c: dict) -> None:
+        if every():
+            print(
+                f"plant: {args.loops} loops, {c['written']} samples written per loop, "
+                f"{c['skipped']} skipped (fell behind), last write pass {c['pass_s']:.2f} s",
+                flush=True,
+            )
+
     async def main() -> int:
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, stop.set)
         try:
-            return await serve(settings, stop, ready)
+            return await serve(settings, stop, ready, status)
         except OSError as e:
             raise InputError(f"cannot serve on {args.endpoint}: {e.strerror or e}") from None
 
