@@ -75,6 +75,10 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
         plant_log = open(Path(tmp) / "plant.log", "w")  # noqa: SIM115 - closed with the folder below
         procs = {"plant": _start(*plant_args, stdout=plant_log)}
         sub = session.declare_subscriber(f"{PREFIX}/loop/*/samples", on_samples)
+        health: list[dict] = []
+        hsub = session.declare_subscriber(
+            f"{PREFIX}/bridge/*/health", lambda s: health.append(json.loads(s.payload.to_bytes()))
+        )
         try:
             _wait(loop_file.exists, 120, "the plant server")
             procs["bridge"] = _start(
@@ -95,10 +99,16 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
             figures |= {"loops": loops, "seconds": t1 - t0, "bridge_cores": cpu["bridge"], "plant_cores": cpu["plant"]}
             figures["bridge_peak_rss_mb"] = bridge_rss
             figures["plant_status"] = _last_status(Path(tmp) / "plant.log")
+            if health:
+                figures |= {
+                    "bridge_reconnects_steady": health[-1]["reconnects"],
+                    "bridge_dropped": health[-1]["dropped"],
+                }
             if restart:
                 figures |= _restart(procs, plant_args, loop_file, arrivals, lock, loops)
         finally:
             sub.undeclare()
+            hsub.undeclare()
             for p in procs.values():
                 if p.poll() is None:
                     p.terminate()

@@ -310,6 +310,10 @@ def _bridge(args) -> None:
         f"(plant server {f['plant_cores']:.0%})"
     )
     print(f"  {f['plant_status'] or 'plant: no status line'}")
+    print(
+        f"  bridge reconnects in the steady phase {f.get('bridge_reconnects_steady', '?')}, "
+        f"values dropped {f.get('bridge_dropped') or 'none'}"
+    )
     if "restart_resume_s" in f:
         print(
             f"  server restart: down {f['restart_server_down_s']:.1f} s; every loop's samples back "
