@@ -164,3 +164,40 @@ def test_the_demo_table_says_how_many_loops_it_leaves_out():
     text = _table({}, truths, 16, 1.0, 0, 40)
     assert sum(line.startswith("loop") and not line.startswith("loop ") for line in text.splitlines()) == 16
     assert "showing 16 of 40 loops" in text
+
+
+LOOPS_TOML = '[loops.A]\nop = "ns=2;s=A.OP"\npv = "ns=2;s=A.PV"\n'
+
+
+@pytest.mark.parametrize(
+    ("loop_file", "flags", "expected"),
+    [
+        ('[loops.A]\nop = "A.OP"\npv = "ns=2;s=A.PV"\n', [], "loops.A.op: expected an OPC UA node id"),
+        ("loops = [", [], "not valid TOML"),
+        (LOOPS_TOML, [], "no OPC UA endpoint"),
+        (LOOPS_TOML, ["--endpoint", "http://plant:4840"], "expected opc.tcp://"),
+        (
+            LOOPS_TOML,
+            ["--endpoint", "opc.tcp://127.0.0.1:1", "--user", "bob", "--password-env", "NO_SUCH_VAR_X"],
+            "no password in the environment variable NO_SUCH_VAR_X",
+        ),  # fmt: skip
+        (LOOPS_TOML, ["--endpoint", "opc.tcp://127.0.0.1:1", "--bridge-id", "a/b"], "bridge id 'a/b'"),
+    ],
+)
+def test_the_bridge_answers_a_bad_loop_file_or_flag_with_one_line(tmp_path, capsys, loop_file, flags, expected):
+    (f := tmp_path / "loops.toml").write_text(loop_file)
+    _one_line_error(capsys, ["bridge", "opcua", "--loop-file", str(f), *flags], expected)
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["plant", "--endpoint", "tcp/127.0.0.1:4840"], "expected opc.tcp://"),
+        (["plant", "--loops", "0"], "--loops and --speed must be positive"),
+        (["plant", "--loop-file", "/no/such/dir/loops.toml"], "no such directory"),
+        (["replay", "--speed", "0", "x.csv"], "--speed and --rate must be positive"),
+        (["replay", "nope.csv"], "nope.csv: no such file"),
+    ],
+)
+def test_plant_and_replay_answer_bad_flags_with_one_line(capsys, argv, expected):
+    _one_line_error(capsys, argv, expected)
