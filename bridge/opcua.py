@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from bridge.sampler import Reading, Sampler, encode
+from schemas.errors import InputError
 from schemas.loop_file import LoopFile
 from schemas.messages import BridgeHealth
 
@@ -40,6 +41,8 @@ class BridgeSettings:
     request_timeout_s: float = 4.0
     health_every_s: float = 2.0
     max_backoff_s: float = 2.0
+    application_uri: str = "urn:stiction:bridge"
+    """Must match the URI in the client certificate where security is used."""
     watchdog_s: float = 10.0
     """asyncua's own liveness probe: its interval and timeout.  A server that closes the socket is
     noticed at once; this only bounds how long a silent, half-open connection goes unnoticed."""
@@ -77,6 +80,10 @@ class OpcuaBridge:
                     await self._session(stop)
                     backoff = 0.25
                 except Exception as e:  # any failure of the connection: say it, mark a gap, try again
+                    if self._sessions == 0 and _refused(e):  # the server is there and says no: retrying won't help
+                        raise InputError(
+                            f"OPC UA {self.settings.endpoint} refused the bridge: {_one_line(e)}"
+                        ) from None
                     if self.connected or self._sessions == 0:
                         log.warning("OPC UA %s: %s", self.settings.endpoint, _one_line(e))
                     else:
@@ -99,6 +106,7 @@ class OpcuaBridge:
         # asyncua's own watchdog probes the server every watchdog_intervall with that as the timeout: at its
         # default of 1 s a busy server (thousands of loops) is declared lost while it is sending values
         client = Client(s.endpoint, timeout=s.request_timeout_s, watchdog_intervall=s.watchdog_s)
+        client.application_uri = s.application_uri
         if s.user:
             client.set_user(s.user)
         if s.password:
@@ -232,6 +240,15 @@ def _epoch_s(t: dt.datetime) -> float:
 async def _wait(stop: asyncio.Event, seconds: float) -> None:
     with contextlib.suppress(TimeoutError):
         await asyncio.wait_for(stop.wait(), max(seconds, 0.0))
+
+
+REFUSALS = ("No matching endpoints", "BadSecurity", "BadCertificate", "BadIdentityToken", "BadUserAccessDenied")
+
+
+def _refused(e: BaseException) -> bool:
+    """The server answered and refused this client (security, certificate, credentials)."""
+    text = f"{type(e).__name__} {e}"
+    return any(r in text for r in REFUSALS)
 
 
 def _one_line(e: BaseException) -> str:

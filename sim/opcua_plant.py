@@ -36,6 +36,12 @@ class PlantSettings:
     warmup_s: float = 1000.0
     advertised_endpoint: str | None = None
     """The endpoint written into the loop file, where clients reach the server (default: ``endpoint``)."""
+    certificate: str | None = None
+    private_key: str | None = None
+    """With both, the server accepts only Basic256Sha256 SignAndEncrypt (any client certificate)."""
+    fault_every: int = 0
+    """Every this many samples the first loop's PV is written with a Bad status (a sensor fault), to
+    show a bridge counting it; 0: never."""
 
 
 def loop_file(settings: PlantSettings, ids: list[str], ns: int, sample_time_s: float) -> LoopFile:
@@ -69,7 +75,12 @@ async def serve(
     await server.init()
     server.set_endpoint(settings.endpoint)
     server.set_server_name("stiction simulated plant")
-    server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+    if settings.certificate and settings.private_key:
+        server.set_security_policy([ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt])
+        await server.load_certificate(settings.certificate)
+        await server.load_private_key(settings.private_key)
+    else:
+        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
     ns = await server.register_namespace(NAMESPACE)
     nodes: dict[str, list] = {role: [] for role in VARIABLES}
     for loop_id in ids:
@@ -102,6 +113,13 @@ async def serve(
                 for node_id, v in zip(nodes[role], values[:, 0], strict=True):
                     dv = ua.DataValue(ua.Variant(float(v), ua.VariantType.Double), SourceTimestamp=stamp)
                     await server.write_attribute_value(node_id, dv)
+            if settings.fault_every and written % settings.fault_every == settings.fault_every - 1:
+                bad = ua.DataValue(
+                    ua.Variant(float("nan"), ua.VariantType.Double),
+                    StatusCode=ua.StatusCode(ua.StatusCodes.BadSensorFailure),
+                    SourceTimestamp=stamp,
+                )
+                await server.write_attribute_value(nodes["pv"][0], bad)
             written += 1
             k += 1
             if status is not None:

@@ -41,6 +41,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     o.add_argument(
         "--password-env", default=None, help=f"environment variable holding the password (default {PASSWORD_ENV})"
     )
+    o.add_argument(
+        "--application-uri",
+        default="urn:stiction:bridge",
+        help="this client's application URI; with --security it must match the certificate (default %(default)s)",
+    )
     o.add_argument("--bridge-id", help="unique per bridge (default: host-pid)")
     o.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(o)
@@ -66,7 +71,19 @@ def settings_from(args: argparse.Namespace, loop_file):
     except ValueError as e:
         raise InputError(str(e)) from None
     security = args.security or (server.security if server else None)
-    return BridgeSettings(bridge_id, endpoint, security=security, user=user, password=password)
+    if security:
+        parts = security.split(",")
+        if len(parts) != 4 or parts[1] not in ("Sign", "SignAndEncrypt"):
+            raise InputError(
+                f"--security {security!r}: expected Policy,Mode,certificate,private_key with Mode Sign or "
+                "SignAndEncrypt, e.g. Basic256Sha256,SignAndEncrypt,cert.der,key.pem"
+            )
+        for f in parts[2:]:
+            if not Path(f).is_file():
+                raise InputError(f"--security: {f}: no such file")
+    return BridgeSettings(
+        bridge_id, endpoint, security=security, user=user, password=password, application_uri=args.application_uri
+    )
 
 
 class Status:

@@ -25,6 +25,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loop-file", type=Path, help="write the bridge's loop file here once the server is up")
     p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall-clock second (default 1)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--certificate", type=Path, help="server certificate (DER or PEM): serve only Basic256Sha256")
+    p.add_argument("--private-key", type=Path, help="the certificate's private key (PEM)")
+    p.add_argument(
+        "--fault-every", type=int, default=0, metavar="N", help="a Bad status on the first loop's PV every N samples"
+    )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
 
 
@@ -40,7 +45,21 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--loop-file {args.loop_file}: no such directory {args.loop_file.parent}")
     if args.verbose < 2:
         logging.getLogger("asyncua").setLevel(logging.CRITICAL)
-    settings = PlantSettings(args.endpoint, args.loops, args.seed, args.speed, advertised_endpoint=args.advertise)
+    if (args.certificate is None) != (args.private_key is None):
+        raise InputError("--certificate and --private-key go together")
+    for f in (args.certificate, args.private_key):
+        if f is not None and not f.is_file():
+            raise InputError(f"{f}: no such file")
+    settings = PlantSettings(
+        args.endpoint,
+        args.loops,
+        args.seed,
+        args.speed,
+        advertised_endpoint=args.advertise,
+        certificate=str(args.certificate) if args.certificate else None,
+        private_key=str(args.private_key) if args.private_key else None,
+        fault_every=max(args.fault_every, 0),
+    )
 
     def ready(loop_file) -> None:
         if args.loop_file is not None:

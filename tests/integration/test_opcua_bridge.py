@@ -3,7 +3,8 @@ bridge and an agent as processes on loopback, and a plain Zenoh subscriber on th
 
 The server is stopped and started again mid-run: the bridge must reconnect by itself, the agent
 must keep its windows (the gap filled and counted, not a restart) and the reports must resume.
-A loop whose PV node the server lacks is named in the bridge's health; the others go on.
+A loop whose PV node the server lacks is named in the bridge's health; the others go on; a value
+with a bad status (the plant's injected sensor fault) is dropped and counted.
 """
 
 import json
@@ -46,7 +47,8 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
     endpoint = zenoh_config.free_loopback_endpoint()
     opc = f"opc.tcp://127.0.0.1:{_free_port()}"
     served = tmp_path / "served.toml"
-    plant_args = ["plant", "--loops", str(LOOPS), "--endpoint", opc, "--speed", str(SPEED), "--loop-file", str(served)]
+    plant_args = ["plant", "--loops", str(LOOPS), "--endpoint", opc, "--speed", str(SPEED), "--loop-file", str(served),
+                  "--fault-every", "40"]  # a sensor fault on plant-00000's PV every 4 s  # fmt: skip
     procs = {"plant": _start(*plant_args)}
     reports: dict[str, list[tuple[StictionReport, float]]] = {}
     health: dict[str, list[dict]] = {"bridge": [], "agent": []}
@@ -111,6 +113,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
             wait_until(lambda: health["bridge"] and health["bridge"][-1]["loops_missing"], 10, "the missing loop named")
             assert "no-such-loop" in health["bridge"][-1]["loops_missing"]["broken"]
             assert health["bridge"][-1]["loops_publishing"] == LOOPS
+            wait_until(lambda: health["bridge"][-1]["dropped"].get("bad_status", 0) >= 1, 10, "a bad status counted")
 
             procs["plant"].send_signal(signal.SIGTERM)  # the server goes away ...
             assert procs["plant"].wait(timeout=20) == 0, procs["plant"].stderr.read()
