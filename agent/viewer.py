@@ -8,12 +8,20 @@ come from ``path``; history goes in with ``send_columns``, live values with
 
 PV is plotted upwards: a 2D view's y axis points down, so points are logged as
 ``(OP, -PV)``.
+
+A recording you can keep (at most about 10 MB a minute for the demo's 40 loops): the OP-PV
+clouds are thinned to ``max_cloud_points`` and logged at most every ``min_cloud_interval_s``
+of wall clock per loop, the INLPCA curve only when it has moved, the flags when they change,
+and OP and PV history on a uniform sub-grid of at most ``max_series_points`` new samples a
+report.  Estimates go in with every report.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+import math
+import time
+from collections.abc import Callable, Sequence
 from urllib.parse import quote
 
 import numpy as np
@@ -82,17 +90,54 @@ def _flags_markdown(report) -> str:
     return "\n".join(lines)
 
 
+MAX_CLOUD_POINTS = 250
+MIN_CLOUD_INTERVAL_S = 5.0
+MAX_SERIES_POINTS = 30
+FLUSH_TICK_S = 2.0
+CURVE_MOVED = 0.01
+"""The curve is logged again once a point of it moved by this share of its extent."""
+
+
+def thin(n: int, max_points: int) -> slice:
+    """Every k-th of ``n`` samples, ending at the last, so that at most ``max_points`` remain."""
+    k = max(1, math.ceil(n / max_points))
+    return slice((n - 1) % k, n, k)
+
+
 class RerunSink:
     """``mode``: ``save:PATH`` (a recording file), ``spawn`` (a native viewer) or ``serve`` (web viewer)."""
 
-    def __init__(self, mode: str, application_id: str = "stiction", web_port: int = 9090, grpc_port: int = 9876):
+    def __init__(
+        self,
+        mode: str,
+        application_id: str = "stiction",
+        web_port: int = 9090,
+        grpc_port: int = 9876,
+        max_cloud_points: int = MAX_CLOUD_POINTS,
+        min_cloud_interval_s: float = MIN_CLOUD_INTERVAL_S,
+        max_series_points: int = MAX_SERIES_POINTS,
+        clock: Callable[[], float] = time.monotonic,
+    ):
         self.mode = mode
+        self.max_cloud_points = max_cloud_points
+        self.min_cloud_interval_s = min_cloud_interval_s
+        self.max_series_points = max_series_points
+        self.clock = clock
+        self._cloud_at: dict[str, float] = {}
+        self._curve: dict[str, np.ndarray] = {}
+        self._flags: dict[str, str] = {}
+        self._stride: dict[str, int] = {}
+        self._buffers: dict[str, dict[str, list]] = {}
         self.url: str | None = None
         self.web_port = web_port
         self._styled: set[str] = set()
         self._last_t: dict[str, float] = {}
         self._loops: list[str] = []
-        self.recording = rr.RecordingStream(application_id)
+        # rows of one entity logged within a flush tick share a chunk: per-chunk overhead, not data,
+        # was most of a recording of many small logs
+        batcher = rr.ChunkBatcherConfig(flush_tick=FLUSH_TICK_S, flush_num_bytes=8 * 1024 * 1024)
+        self.recording = rr.RecordingStream(application_id, batcher_config=batcher)
+        self._truth: dict[str, tuple[float, float]] = {}
         if mode.startswith("save:"):
             self.recording.save(mode[5:])
         elif mode == "spawn":
@@ -132,42 +177,78 @@ class RerunSink:
             self.recording.send_blueprint(blueprint(self._loops))
 
     def log_report(self, report, window, details, truth=None) -> None:
-        """One report with its window (``agent.pipeline.Window``) and ``Details``; ``truth``: (fs, fd) if known."""
+        """One report with its window (``agent.pipeline.Window``) and ``Details``; ``truth``: (fs, fd) if known.
+
+        History (OP, PV, the estimates) is buffered per loop and sent with the loop's clouds."""
         loop_id, rec = report.loop_id, self.recording
         self._style(loop_id)
+        buf = self._buffers.setdefault(loop_id, {"t": [], "op": [], "pv": [], "est_t": [], "fs": [], "fd": []})
         t_end = float(window.t_end_s if window.t_end_s is not None else len(window.op) - 1)
         t = t_end - window.ts_s * np.arange(len(window.op))[::-1]
         new = t > self._last_t.get(loop_id, -np.inf)
         if new.any():
-            times = rr.TimeColumn(TIMELINE, duration=t[new])
-            rec.send_columns(path(loop_id, "op"), indexes=[times], columns=rr.Scalars.columns(scalars=window.op[new]))
-            rec.send_columns(path(loop_id, "pv"), indexes=[times], columns=rr.Scalars.columns(scalars=window.pv[new]))
+            # a uniform sub-grid of the stream (sample index a multiple of the loop's stride), the same every report
+            stride = self._stride.setdefault(loop_id, max(1, math.ceil(int(new.sum()) / self.max_series_points)))
+            keep = new & (np.round(t / window.ts_s).astype(np.int64) % stride == 0)
+            buf["t"].append(t[keep])
+            buf["op"].append(np.asarray(window.op, float)[keep])
+            buf["pv"].append(np.asarray(window.pv, float)[keep])
             self._last_t[loop_id] = float(t[-1])
-        rec.set_time(TIMELINE, duration=t_end)
-        rec.log(
-            path(loop_id, "raw"),
-            rr.Points2D(np.column_stack([window.op, -window.pv]), radii=0.08, colors=[150, 150, 150]),
-        )
-        rec.log(
-            path(loop_id, "clean"),
-            rr.Points2D(
-                np.column_stack([details.denoised[:, 0], -details.denoised[:, 1]]), radii=0.12, colors=[31, 119, 180]
-            ),
-        )
-        rec.log(
-            path(loop_id, "curve"),
-            rr.LineStrips2D(
-                [np.column_stack([details.curve[:, 0], -details.curve[:, 1]])], colors=[214, 39, 40], radii=0.06
-            ),
-        )
         if report.fs_pct is not None:
-            rec.log(path(loop_id, "fs_est"), rr.Scalars(report.fs_pct))
-            rec.log(path(loop_id, "fd_est"), rr.Scalars(report.fd_pct))
-        if truth is not None:
+            buf["est_t"].append(t_end)
+            buf["fs"].append(report.fs_pct)
+            buf["fd"].append(report.fd_pct)
+        rec.set_time(TIMELINE, duration=t_end)
+        if truth is not None and self._truth.get(loop_id) != tuple(truth):  # the truth is logged where it changes
+            self._truth[loop_id] = tuple(truth)
             rec.log(path(loop_id, "fs_true"), rr.Scalars(truth[0]))
             rec.log(path(loop_id, "fd_true"), rr.Scalars(truth[1]))
-        rec.log(path(loop_id, "flags"), rr.TextDocument(_flags_markdown(report), media_type="text/markdown"))
+        now = self.clock()
+        if now - self._cloud_at.get(loop_id, -math.inf) >= self.min_cloud_interval_s:
+            self._cloud_at[loop_id] = now
+            self._log_clouds(loop_id, window, details)
+            flags = _flags_markdown(report)
+            if self._flags.get(loop_id) != flags:  # the flags with the clouds they describe
+                self._flags[loop_id] = flags
+                rec.log(path(loop_id, "flags"), rr.TextDocument(flags, media_type="text/markdown"))
+            self._flush(loop_id)
+
+    def _flush(self, loop_id: str) -> None:
+        """A loop's buffered history, one chunk per entity."""
+        buf, rec = self._buffers.get(loop_id), self.recording
+        if not buf:
+            return
+        if buf["t"]:
+            times = rr.TimeColumn(TIMELINE, duration=np.concatenate(buf["t"]))
+            for what in ("op", "pv"):
+                values = rr.Scalars.columns(scalars=np.concatenate(buf[what]))
+                rec.send_columns(path(loop_id, what), indexes=[times], columns=values)
+        if buf["est_t"]:
+            times = rr.TimeColumn(TIMELINE, duration=np.asarray(buf["est_t"]))
+            rec.send_columns(path(loop_id, "fs_est"), indexes=[times], columns=rr.Scalars.columns(scalars=buf["fs"]))
+            rec.send_columns(path(loop_id, "fd_est"), indexes=[times], columns=rr.Scalars.columns(scalars=buf["fd"]))
+        for v in buf.values():
+            v.clear()
+
+    def _log_clouds(self, loop_id: str, window, details) -> None:
+        """The OP-PV points thinned, and the curve where it moved since it was last logged."""
+        rec, sl = self.recording, thin(len(window.op), self.max_cloud_points)
+        op, pv = np.asarray(window.op, np.float32)[sl], np.asarray(window.pv, np.float32)[sl]
+        rec.log(path(loop_id, "raw"), rr.Points2D(np.column_stack([op, -pv]), radii=0.08, colors=[150, 150, 150]))
+        clean = np.asarray(details.denoised, np.float32)[sl]
+        rec.log(
+            path(loop_id, "clean"),
+            rr.Points2D(np.column_stack([clean[:, 0], -clean[:, 1]]), radii=0.12, colors=[31, 119, 180]),
+        )
+        curve = np.column_stack([details.curve[:, 0], -details.curve[:, 1]]).astype(np.float32)
+        last = self._curve.get(loop_id)
+        extent = float(np.ptp(curve, axis=0).max()) if curve.size else 0.0
+        if last is None or last.shape != curve.shape or np.abs(curve - last).max() > CURVE_MOVED * max(extent, 1e-9):
+            self._curve[loop_id] = curve
+            rec.log(path(loop_id, "curve"), rr.LineStrips2D([curve], colors=[214, 39, 40], radii=0.06))
 
     def close(self) -> None:
+        for loop_id in list(self._buffers):
+            self._flush(loop_id)
         self.recording.flush()
         self.recording.disconnect()

@@ -12,35 +12,68 @@ from sim.grid import case_specs  # noqa: E402
 from sim.loop import simulate  # noqa: E402
 
 
-def test_recording_holds_every_loops_views_with_one_row_per_report(tmp_path, quantifier_fixture):
+def _record(file, quantifier, reports_per_loop=3, window=300, step=100, **sink_kw):
     specs = case_specs(seed=1)
     names = ["C4", "N4"]
-    r = simulate([specs[n] for n in names], duration_s=1600).kept()
-    file = tmp_path / "rec.rrd"
-    sink = RerunSink(f"save:{file}")
-    reports_per_loop, window, step = 3, 300, 100
+    r = simulate([specs[n] for n in names], duration_s=1000 + window + step * reports_per_loop).kept()
+    sink = RerunSink(f"save:{file}", **sink_kw)
     for k in range(reports_per_loop):
         end = window + k * step
         windows = [
             Window(n, r.op[i, end - window : end], r.pv[i, end - window : end], 1.0, float(r.t_s[end - 1]), "level")
             for i, n in enumerate(names)
         ]
-        for w, (report, details) in zip(windows, quantifier_fixture.quantify_with_details(windows), strict=True):
+        for w, (report, details) in zip(windows, quantifier.quantify_with_details(windows), strict=True):
             truth = (specs[w.loop_id].fs_pct, specs[w.loop_id].fd_pct) if w.loop_id == "C4" else None
             sink.log_report(report, w, details, truth)
+            if "clock" in sink_kw:
+                sink_kw["clock"].advance()
     sink.close()
-
     rows: Counter[str] = Counter()
     for chunk in rr.chunk.RrdReader(file).stream().to_chunks():
         if not chunk.is_static:
             rows[chunk.entity_path.lstrip("/")] += chunk.num_rows
+    return names, rows
+
+
+def test_recording_holds_every_loops_views_with_one_row_per_report(tmp_path, quantifier_fixture):
+    reports_per_loop, window, step = 3, 300, 100
+    full = {"min_cloud_interval_s": 0, "max_cloud_points": 10**9, "max_series_points": 10**9}
+    names, rows = _record(tmp_path / "rec.rrd", quantifier_fixture, reports_per_loop, window, step, **full)
     for name in names:
-        for what in ("raw", "curve", "clean", "fs_est", "fd_est", "flags"):
+        for what in ("raw", "clean", "fs_est", "fd_est"):
             assert rows[path(name, what)] == reports_per_loop, (name, what)
+        assert 1 <= rows[path(name, "curve")] <= reports_per_loop  # logged again only where it moved
+        assert 1 <= rows[path(name, "flags")] <= reports_per_loop  # and the flags where they changed
         # history goes in once: every sample of every window, no repeats
         assert rows[path(name, "op")] == rows[path(name, "pv")] == window + (reports_per_loop - 1) * step
-    assert rows[path("C4", "fs_true")] == reports_per_loop and path("N4", "fs_true") not in rows
+    assert rows[path("C4", "fs_true")] == 1 and path("N4", "fs_true") not in rows  # the truth where it changes
     assert set(ENTITIES) >= {"raw", "curve", "clean"}
+
+
+class _Clock:
+    def __init__(self, step_s):
+        self.t, self.step_s = 0.0, step_s
+
+    def __call__(self):
+        return self.t
+
+    def advance(self):
+        self.t += self.step_s
+
+
+def test_a_kept_recording_thins_points_and_rate_limits_the_clouds(tmp_path, quantifier_fixture):
+    full = {"min_cloud_interval_s": 0, "max_cloud_points": 10**9, "max_series_points": 10**9}
+    _, rows_full = _record(tmp_path / "full.rrd", quantifier_fixture, 20, 300, 50, **full)
+    # 20 reports a loop, one every 0.4 s of wall clock (two loops, one tick each): clouds at most every 5 s
+    names, rows = _record(tmp_path / "kept.rrd", quantifier_fixture, 20, 300, 50, clock=_Clock(0.2))
+    for name in names:
+        assert rows[path(name, "fs_est")] == 20  # every estimate kept
+        assert rows[path(name, "raw")] == rows[path(name, "clean")] == 2  # at 0 s and 5.2 s of the 7.6 s
+        assert rows[path(name, "op")] == rows[path(name, "pv")] == (300 + 19 * 50) // 10  # every 10th sample
+    kept, whole = (tmp_path / "kept.rrd").stat().st_size, (tmp_path / "full.rrd").stat().st_size
+    assert kept < whole / 2, (kept, whole)
+    assert sum(rows_full.values()) > sum(rows.values())
 
 
 def test_blueprint_has_an_overview_and_a_detail_tab():
