@@ -135,25 +135,31 @@ class AgentService:
 
     def run(self, stop: threading.Event) -> None:
         while not stop.is_set():
-            worked = self.step()
+            worked = self.step(stop)
             if not worked:
                 self._wake.wait(0.05)
                 self._wake.clear()
         self.publish_health()
 
     # one pass of the worker ----------------------------------------------------------------------
-    def step(self) -> bool:
+    def step(self, stop: threading.Event | None = None) -> bool:
+        """Ingest what arrived, report what is due; a set ``stop`` ends the pass between batches (a
+        backlogged agent stops within one batch of SIGTERM, not after its whole backlog)."""
         with self._alive_lock:
             alive = set(self._alive)
         self.core.set_agents(alive)
         n = 0
         limit = INGEST_PER_PASS if len(self._inbox) <= BACKLOG_MESSAGES else len(self._inbox)
         while self._inbox and n < limit:
+            if n % INGEST_PER_PASS == 0 and stop is not None and stop.is_set():
+                return False
             key, payload, encoding, arrived = self._inbox.popleft()
             self.core.ingest(key, payload, encoding, arrived)
             n += 1
         due = self.core.due()
         for i in range(0, len(due), self.settings.max_batch):
+            if stop is not None and stop.is_set():
+                return False
             self._report(due[i : i + self.settings.max_batch])
         if time.monotonic() - self._last_health >= self.settings.health_every_s:
             self.publish_health()
