@@ -20,17 +20,12 @@ APEXES = 9
 """Apex positions tried per half cycle (shares of it from 0.1 to 0.9)."""
 
 
-def _fit_errors(seg: np.ndarray, shapes: np.ndarray) -> np.ndarray:
-    """[S] mean square error of ``seg`` against ``a * shape + b`` at the best a, b, for each row of
-    ``shapes`` [S, m]: least squares in closed form on the centred signals."""
-    y = seg - seg.mean()
-    s = shapes - shapes.mean(axis=1, keepdims=True)
-    sse = y @ y - (s @ y) ** 2 / np.einsum("ij,ij->i", s, s)
-    return np.maximum(sse, 0.0) / seg.size
-
-
 def stiction_index(x: np.ndarray) -> float:
-    """SI of one signal, nan where it has fewer than two whole half cycles."""
+    """SI of one signal, nan where it has fewer than two whole half cycles.
+
+    Every half cycle ``y[a..b]`` (both ends) of at least 5 samples is fitted with ``p * shape + q``
+    for the half sine and each triangle, in closed form from per-half-cycle sums, all half cycles
+    at once: ``SSE = Syy - Sys^2 / Sss`` on centred sums."""
     y = detrend(np.asarray(x, float))
     sd = float(np.std(y))
     if not sd > 0:
@@ -38,16 +33,30 @@ def stiction_index(x: np.ndarray) -> float:
     _, zc = half_cycles(y, sd)
     if zc.size < 3:
         return float("nan")
+    a, b = zc[:-1], zc[1:]
+    m = b - a + 1
+    keep = m >= 5
+    a, m = a[keep], m[keep]
+    if a.size == 0:
+        return float("nan")
+    seg = np.repeat(np.arange(a.size), m)
+    k = np.arange(seg.size) - np.repeat(np.cumsum(m) - m, m)  # position within the half cycle
+    u = k / np.repeat(m - 1, m)
+    yv = y[np.repeat(a, m) + k]
     apexes = np.linspace(0.1, 0.9, APEXES)[:, None]
-    mse_sine = mse_triangle = 0.0
-    for a, b in zip(zc[:-1], zc[1:], strict=True):
-        seg = y[a : b + 1]
-        if seg.size < 5:
-            continue
-        u = np.linspace(0.0, 1.0, seg.size)
-        triangles = np.where(u <= apexes, u / apexes, (1 - u) / (1 - apexes))
-        errors = _fit_errors(seg, np.vstack([np.sin(np.pi * u), triangles]))
-        mse_sine += errors[0]
-        mse_triangle += errors[1:].min()
+    shapes = np.vstack([np.sin(np.pi * u), np.where(u <= apexes, u / apexes, (1 - u) / (1 - apexes))])  # [S, L]
+
+    def per_half(w):
+        return np.bincount(seg, weights=w, minlength=a.size)
+
+    sy, syy = per_half(yv), per_half(yv * yv)
+    ss = np.stack([per_half(row) for row in shapes])
+    sss = np.stack([per_half(row * row) for row in shapes])
+    ssy = np.stack([per_half(row * yv) for row in shapes])
+    cyy = syy - sy * sy / m
+    css = sss - ss * ss / m
+    csy = ssy - ss * sy / m
+    mse = np.maximum(cyy - csy * csy / css, 0.0) / m  # [S, halves]
+    mse_sine, mse_triangle = float(mse[0].sum()), float(mse[1:].min(axis=0).sum())
     total = mse_sine + mse_triangle
     return float(mse_sine / total) if total > 0 else float("nan")

@@ -66,3 +66,22 @@ def test_ellipse_band_is_the_plot_width_at_mean_pv():
     a, b, phase = 3.0, 1.0, 0.4
     s = bicoherence.ellipse_band_pct(a * np.sin(t + phase), b * np.sin(t))
     assert s == pytest.approx(2 * a * abs(np.sin(phase)), rel=1e-3)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_vectorised_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed):
+    from detect.oscillation import _amplitude, detrend, half_cycles
+    from detect.shape import stiction_index
+    from tests.detect import reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(200, 1500))
+    t = np.arange(n)
+    x = np.sin(2 * np.pi * t / rng.uniform(20, 200)) + rng.uniform(0, 0.6) * rng.standard_normal(n)
+    if seed % 2:
+        x = np.sign(x) * np.abs(x) ** 0.3 + 0.1 * rng.standard_normal(n)  # squarer, noisier
+    y = detrend(x)
+    smooth, zc = half_cycles(y, float(np.std(y)))
+    assert zc.size >= 3
+    assert _amplitude(smooth, zc) == pytest.approx(reference.amplitude(smooth, zc), rel=1e-12)
+    assert stiction_index(x) == pytest.approx(reference.stiction_index(x), rel=1e-7, abs=1e-9)

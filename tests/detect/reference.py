@@ -1,0 +1,40 @@
+"""Plain per-half-cycle loops: the references the vectorised detect code is checked against."""
+
+import numpy as np
+
+from detect.oscillation import detrend, half_cycles
+from detect.shape import APEXES
+
+
+def amplitude(y, crossings):
+    swings = [
+        float(np.percentile(np.abs(y[a:b]), 90)) for a, b in zip(crossings[:-1], crossings[1:], strict=True) if b > a
+    ]
+    return float(np.median(swings)) if swings else float(np.ptp(y)) / 2
+
+
+def stiction_index(x):
+    y = detrend(np.asarray(x, float))
+    sd = float(np.std(y))
+    if not sd > 0:
+        return float("nan")
+    _, zc = half_cycles(y, sd)
+    if zc.size < 3:
+        return float("nan")
+    apexes = np.linspace(0.1, 0.9, APEXES)
+    mse_sine = mse_triangle = 0.0
+    used = 0
+    for a, b in zip(zc[:-1], zc[1:], strict=True):
+        seg = y[a : b + 1]
+        if seg.size < 5:
+            continue
+        used += 1
+        u = np.linspace(0.0, 1.0, seg.size)
+        errors = []
+        for shape in [np.sin(np.pi * u)] + [np.where(u <= p, u / p, (1 - u) / (1 - p)) for p in apexes]:
+            coef = np.polyfit(shape, seg, 1)  # least squares y = c1 * shape + c0
+            errors.append(np.mean((seg - np.polyval(coef, shape)) ** 2))
+        mse_sine += errors[0]
+        mse_triangle += min(errors[1:])
+    total = mse_sine + mse_triangle
+    return float(mse_sine / total) if used and total > 0 else float("nan")
