@@ -34,19 +34,26 @@ def squared_bicoherence(x: np.ndarray, segment: int) -> tuple[np.ndarray, int]:
     x = detrend(np.asarray(x, float))
     x = x / (np.std(x) or 1.0)
     step = segment // 2
-    starts = range(0, x.size - segment + 1, step)
-    window = np.hanning(segment)
-    spectra = np.array([np.fft.fft(window * (x[s : s + segment] - x[s : s + segment].mean())) for s in starts])
-    k = len(spectra)
+    starts = np.arange(0, x.size - segment + 1, step)
+    segs = x[starts[:, None] + np.arange(segment)]  # [K, segment], half overlapping
+    spectra = np.fft.fft(np.hanning(segment) * (segs - segs.mean(axis=1, keepdims=True)), axis=1)
+    k = len(starts)
     f = segment // 2
-    i1, i2 = np.meshgrid(np.arange(f), np.arange(f), indexing="ij")
-    domain = (i2 <= i1) & (i1 + i2 < f) & (i2 > 0)
-    x1, x2, x12 = spectra[:, i1], spectra[:, i2], spectra[:, (i1 + i2) % segment]
+    b2 = np.full((f, f), np.nan)
+    i1, i2 = _domain(f)  # only the principal domain is computed
+    x1, x2, x12 = spectra[:, i1], spectra[:, i2], spectra[:, i1 + i2]
     num = np.abs(np.sum(x1 * x2 * np.conj(x12), axis=0)) ** 2
     den = np.sum(np.abs(x1 * x2) ** 2, axis=0) * np.sum(np.abs(x12) ** 2, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        b2 = np.where(domain & (den > 0), num / den, np.nan)
+        b2[i1, i2] = np.where(den > 0, num / den, np.nan)
     return b2, k
+
+
+def _domain(f: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frequency index pairs of the principal domain: 0 < i2 <= i1, i1 + i2 < f."""
+    i1, i2 = np.meshgrid(np.arange(f), np.arange(f), indexing="ij")
+    inside = (i2 <= i1) & (i1 + i2 < f) & (i2 > 0)
+    return i1[inside], i2[inside]
 
 
 def test(x: np.ndarray) -> Bicoherence:

@@ -45,25 +45,36 @@ class Oscillation:
 
 
 def detrend(x: np.ndarray) -> np.ndarray:
-    t = np.arange(x.size, dtype=float)
-    slope, intercept = np.polyfit(t, x, 1)
-    return x - (slope * t + intercept)
+    """``x`` less its least-squares straight line (closed form)."""
+    x = np.asarray(x, float)
+    n = x.size
+    if n < 2:
+        return x - x.mean() if n else x
+    t = np.arange(n, dtype=float) - (n - 1) / 2  # centred: slope and mean are independent
+    slope = float(t @ (x - x.mean())) / float(t @ t)
+    return x - x.mean() - slope * t
 
 
 def _crossings(x: np.ndarray, hysteresis: float) -> np.ndarray:
-    """Indices where ``x`` passes from below ``-h`` to above ``+h`` or back, at its zero crossing."""
-    state = 0
-    out = []
-    for k, v in enumerate(x):
-        s = 1 if v > hysteresis else -1 if v < -hysteresis else 0
-        if s and s != state:
-            if state:
-                j = k
-                while j > 0 and np.sign(x[j - 1]) == s:  # back to where it crossed zero
-                    j -= 1
-                out.append(j)
-            state = s
-    return np.asarray(out, dtype=int)
+    """Indices where ``x`` passes from below ``-h`` to above ``+h`` or back, at its zero crossing:
+    where the state (+1 above h, -1 below -h) changes, walked back to the first sample of the run
+    of the new sign before it."""
+    x = np.asarray(x, float)
+    state = np.where(x > hysteresis, 1, np.where(x < -hysteresis, -1, 0))
+    held = np.flatnonzero(state)
+    if held.size < 2:
+        return np.zeros(0, dtype=int)
+    change = held[1:][state[held[1:]] != state[held[:-1]]]
+    if change.size == 0:
+        return np.zeros(0, dtype=int)
+    idx = np.arange(x.size)
+    sign = np.sign(x)
+    # the last index at or before i whose sign is not +1 (not -1): a run of +1 (-1) starts after it
+    not_pos = np.maximum.accumulate(np.where(sign != 1, idx, -1))
+    not_neg = np.maximum.accumulate(np.where(sign != -1, idx, -1))
+    before = change - 1
+    start = np.where(state[change] == 1, not_pos[before], not_neg[before]) + 1
+    return start.astype(int)
 
 
 def _regularity(intervals: np.ndarray) -> tuple[float, float]:

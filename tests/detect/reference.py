@@ -38,3 +38,43 @@ def stiction_index(x):
         mse_triangle += min(errors[1:])
     total = mse_sine + mse_triangle
     return float(mse_sine / total) if used and total > 0 else float("nan")
+
+
+def crossings(x, hysteresis):
+    state = 0
+    out = []
+    for k, v in enumerate(x):
+        s = 1 if v > hysteresis else -1 if v < -hysteresis else 0
+        if s and s != state:
+            if state:
+                j = k
+                while j > 0 and np.sign(x[j - 1]) == s:
+                    j -= 1
+                out.append(j)
+            state = s
+    return np.asarray(out, dtype=int)
+
+
+def detrend_polyfit(x):
+    t = np.arange(x.size, dtype=float)
+    slope, intercept = np.polyfit(t, x, 1)
+    return x - (slope * t + intercept)
+
+
+def squared_bicoherence(x, segment):
+    x = detrend_polyfit(np.asarray(x, float))
+    x = x / (np.std(x) or 1.0)
+    starts = range(0, x.size - segment + 1, segment // 2)
+    window = np.hanning(segment)
+    spectra = np.array([np.fft.fft(window * (x[s : s + segment] - x[s : s + segment].mean())) for s in starts])
+    f = segment // 2
+    out = np.full((f, f), np.nan)
+    for i1 in range(f):
+        for i2 in range(1, i1 + 1):
+            if i1 + i2 >= f:
+                continue
+            x1, x2, x12 = spectra[:, i1], spectra[:, i2], spectra[:, i1 + i2]
+            den = np.sum(np.abs(x1 * x2) ** 2) * np.sum(np.abs(x12) ** 2)
+            if den > 0:
+                out[i1, i2] = np.abs(np.sum(x1 * x2 * np.conj(x12))) ** 2 / den
+    return out, len(spectra)

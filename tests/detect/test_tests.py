@@ -85,3 +85,24 @@ def test_vectorised_amplitude_and_shape_index_equal_the_per_half_cycle_loops(see
     assert zc.size >= 3
     assert _amplitude(smooth, zc) == pytest.approx(reference.amplitude(smooth, zc), rel=1e-12)
     assert stiction_index(x) == pytest.approx(reference.stiction_index(x), rel=1e-7, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_vectorised_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
+    from detect.bicoherence import squared_bicoherence
+    from detect.oscillation import _crossings, detrend
+    from tests.detect import reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(100, 1200))
+    x = np.sin(np.arange(n) / rng.uniform(3, 30)) * rng.uniform(0.5, 3) + rng.standard_normal(n) * rng.uniform(0, 1)
+    x += rng.uniform(-0.01, 0.01) * np.arange(n)
+    if seed == 0:
+        x[::7] = 0.0  # exact zeros: np.sign 0 ends a run
+    for h in (0.0, 0.3, 1.0):
+        np.testing.assert_array_equal(_crossings(x, h), reference.crossings(x, h))
+    np.testing.assert_allclose(detrend(x), reference.detrend_polyfit(x), atol=1e-9)
+    b2, k = squared_bicoherence(x, 32)
+    ref, k_ref = reference.squared_bicoherence(x, 32)
+    assert k == k_ref
+    np.testing.assert_allclose(b2, ref, rtol=1e-9, atol=1e-12, equal_nan=True)
