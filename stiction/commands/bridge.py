@@ -10,10 +10,8 @@ others go on; after a server restart it reconnects by itself.  One status line e
 from __future__ import annotations
 
 import argparse
-import asyncio
 import logging
 import os
-import signal
 import socket
 import sys
 import time
@@ -22,7 +20,7 @@ from pathlib import Path
 from schemas import keys
 from schemas.errors import InputError
 from stiction import zenoh_config
-from stiction.commands.sim import DEFAULT_ENDPOINT
+from stiction.commands.sim import DEFAULT_ENDPOINT, run_until_signal
 from stiction.status import Every, bridge_line
 
 log = logging.getLogger(__name__)
@@ -132,13 +130,6 @@ def run(args: argparse.Namespace) -> int:
             flush=True,
         )
 
-        async def main() -> None:
-            stop = asyncio.Event()
-            loop = asyncio.get_running_loop()
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(sig, stop.set)
-            await bridge.run(stop)
-
-        asyncio.run(main())
+        run_until_signal(bridge.run)
     print(f"bridge {settings.bridge_id} stopped: {bridge.health().model_dump_json()}", file=sys.stderr)
     return 0

@@ -7,12 +7,11 @@ every loop each sample time (1 s of the thesis's loop every 1/--speed s of wall 
 from __future__ import annotations
 
 import argparse
-import asyncio
 import logging
-import signal
 from pathlib import Path
 
 from schemas.errors import InputError
+from stiction.commands.sim import run_until_signal
 from stiction.status import Every
 
 log = logging.getLogger(__name__)
@@ -82,16 +81,12 @@ def run(args: argparse.Namespace) -> int:
                 flush=True,
             )
 
-    async def main() -> int:
-        stop = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
+    async def work(stop) -> int:
         try:
             return await serve(settings, stop, ready, status)
         except OSError as e:
             raise InputError(f"cannot serve on {args.endpoint}: {e.strerror or e}") from None
 
-    written = asyncio.run(main())
+    written = run_until_signal(work)
     log.info("wrote %d samples per loop", written)
     return 0

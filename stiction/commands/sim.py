@@ -34,6 +34,20 @@ def stop_on_signals() -> threading.Event:
     return stop
 
 
+def run_until_signal(work):
+    """``asyncio.run(work(stop))`` with ``stop`` (an ``asyncio.Event``) set on SIGINT or SIGTERM."""
+    import asyncio
+
+    async def main():
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        return await work(stop)
+
+    return asyncio.run(main())
+
+
 def run(args: argparse.Namespace) -> int:
 
     from sim.publisher import PublisherSettings
