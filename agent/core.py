@@ -188,11 +188,12 @@ class AgentCore:
         full = self.settings.window_samples
         for loop_id, state in self.loops.items():
             w = state.window
-            if (
-                w.count >= state.first_at
-                and state.new_since_report >= self.settings.report_every_samples
-                and self.owns(loop_id)
-            ):
+            if w.count < state.first_at or state.new_since_report < self.settings.report_every_samples:
+                continue
+            # the replica keeps the owner's schedule without reporting, so that after a take-over it
+            # reports each interval once, on time, not at once with everything it has counted
+            state.new_since_report = 0
+            if self.owns(loop_id):
                 op, pv = w.get()
                 window = Window(
                     loop_id,
@@ -205,7 +206,6 @@ class AgentCore:
                     interpolated=state.interpolated(),
                 )
                 out.append((window, state.arrived_at))
-                state.new_since_report = 0
         return out
 
     def completed(self, n_reports: int, arrivals: list[float], now_s: float) -> None:

@@ -149,3 +149,25 @@ def test_first_reports_of_loops_started_together_are_spread_over_the_report_inte
     sizes = np.array(list(first_at.values()))
     assert sizes.min() >= 100 and sizes.max() < 170  # within one report interval (and one batch) of 100
     assert np.bincount((sizes - 100) // 10).max() < 300 / 6 * 1.5  # about evenly spread, not all at once
+
+
+def test_after_the_owner_dies_the_replica_reports_every_interval_exactly_once():
+    a, b = AgentCore("a", CoreSettings(window_samples=200, report_every_samples=50)), None
+    b = AgentCore("b", CoreSettings(window_samples=200, report_every_samples=50))
+    for core in (a, b):
+        core.set_agents({"a", "b"})
+    loops = [f"L{i}" for i in range(40)]
+    reported: dict[str, list[float]] = {lid: [] for lid in loops}
+    for seq in range(0, 1000, 10):
+        if seq == 500:
+            b.set_agents({"b"})  # a is killed: its token vanishes, b takes over
+        for lid in loops:
+            payload = _payload(seq, loop_id=lid)
+            for core in (a, b) if seq < 500 else (b,):
+                core.ingest(f"stiction/demo/loop/{lid}/samples", payload, JSON, 0.0)
+        for core in (a, b) if seq < 500 else (b,):
+            for w, _ in core.due():
+                reported[w.loop_id].append(w.op[-1])  # the window's last sample names the interval
+    for lid, ends in reported.items():
+        steps = np.diff(ends)
+        assert len(ends) >= 15 and np.all(steps == 50), (lid, ends)  # one report each 50 samples, none twice
