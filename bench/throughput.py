@@ -35,6 +35,21 @@ def _proc_stats(pid: int) -> tuple[float, float]:
     return cpu_s, int(hwm.split()[1]) / 1024
 
 
+def _exactly_once(rows, interval_s: float) -> dict:
+    """Reports of the same loop and window end counted twice, and intervals no report covered."""
+    by_loop: dict[str, list[float]] = {}
+    for loop_id, t_end, _ in rows:
+        by_loop.setdefault(loop_id, []).append(t_end)
+    duplicated = missed = 0
+    for ends in by_loop.values():
+        ends = np.sort(np.asarray(ends))
+        unique = np.unique(ends)
+        duplicated += ends.size - unique.size
+        steps = np.round(np.diff(unique) / interval_s).astype(int)
+        missed += int(np.sum(np.maximum(steps - 1, 0)))
+    return {"reports_duplicated": duplicated, "report_intervals_missed": missed}
+
+
 def run_throughput(
     loops: int = 1000,
     seconds: float = 120.0,
@@ -42,7 +57,10 @@ def run_throughput(
     window: int = 1000,
     report_every: int = 60,
     agents: int = 1,
+    kill_after_s: float | None = None,
 ) -> dict:
+    """``kill_after_s``: SIGKILL the first agent that many seconds into the live phase (the others
+    must take its loops over, each interval reported once)."""
     n_live = int(seconds * speed)
     specs = list(loop_specs(loops, seed=7).values())
     ids = [f"b{i:05d}" for i in range(loops)]
@@ -133,7 +151,13 @@ def run_throughput(
         started = time.monotonic()
         cpu0 = [_proc_stats(p.pid)[0] for p in procs]
         per_second = max(int(speed), 1)
+        killed_at = None
         for k in range(0, n_live, per_second):
+            if kill_after_s is not None and killed_at is None and k / speed >= kill_after_s:
+                killed_stats = _proc_stats(procs[0].pid)
+                procs[0].kill()  # SIGKILL: no goodbye, only its liveliness token vanishes
+                procs[0].wait()
+                killed_at = k
             due = started + k / speed
             wait = due - time.monotonic()
             if wait > 0:
@@ -156,7 +180,7 @@ def run_throughput(
         publish_s = time.monotonic() - started
         tick.wait(3.0)  # let the last windows report
         wall = time.monotonic() - started
-        stats = [_proc_stats(p.pid) for p in procs]
+        stats = [killed_stats if i == 0 and killed_at is not None else _proc_stats(p.pid) for i, p in enumerate(procs)]
         for p in procs:
             p.terminate()
         stopped_late = 0
@@ -201,8 +225,11 @@ def run_throughput(
         "latency_p99_s": float(np.percentile(lat, 99)) if lat.size else None,
         "samples_published": published,
         "samples_ingested": samples_agents,
-        # each loop is held by min(agents, 2) agents (its owner and the replica that would inherit it)
-        "samples_lost": published * min(agents, 2) - samples_agents if health else None,
+        # each loop is held by min(agents, 2) agents (its owner and the replica that would inherit it);
+        # a killed agent's count stops with it, so the figure means nothing then
+        "samples_lost": published * min(agents, 2) - samples_agents if health and killed_at is None else None,
+        "killed_agent_at_s": None if killed_at is None else killed_at / speed,
+        **_exactly_once(rows, report_every * ts),
         "rejected": rejected,
         "agent_cpu_share": [(s[0] - c) / wall for s, c in zip(stats, cpu0, strict=True)],
         "agent_peak_rss_mb": max(s[1] for s in stats),

@@ -43,6 +43,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--speed", type=float, default=1.0, help="samples per loop per second (1 = a plant at 1 Hz)")
     t.add_argument("--agents", type=int, default=1)
     t.add_argument("--report-every", type=int, default=60, help="samples between a loop's reports")
+    t.add_argument(
+        "--kill-after", type=float, metavar="S", help="SIGKILL the first agent S seconds into the live phase"
+    )
     t.add_argument("--json", action="store_true")
     b = sub.add_parser("bridge", help="OPC UA plant server -> bridge -> subscriber: samples lost, latency, CPU")
     b.add_argument("--loops", type=int, default=1000)
@@ -267,7 +270,14 @@ def _accuracy(args) -> None:
 def _throughput(args) -> None:
     from bench.throughput import run_throughput
 
-    f = run_throughput(args.loops, args.seconds, args.speed, report_every=args.report_every, agents=args.agents)
+    f = run_throughput(
+        args.loops,
+        args.seconds,
+        args.speed,
+        report_every=args.report_every,
+        agents=args.agents,
+        kill_after_s=args.kill_after,
+    )
     f |= {"host": _machine()}
     if args.json:
         _print_json(f)
@@ -284,6 +294,11 @@ def _throughput(args) -> None:
     )
     print(f"  latency last sample -> report: {lat}")
     print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
+    killed = f" (agent 0 SIGKILLed at {f['killed_agent_at_s']:.0f} s)" if f["killed_agent_at_s"] is not None else ""
+    print(
+        f"  exactly once{killed}: {f['reports_duplicated']} reports duplicated, "
+        f"{f['report_intervals_missed']} intervals without a report"
+    )
     print(
         f"  agent CPU {', '.join(f'{c:.0%}' for c in f['agent_cpu_share'])} of a core, "
         f"peak RSS {f['agent_peak_rss_mb']:.0f} MB"
