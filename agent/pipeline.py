@@ -12,6 +12,7 @@ and ``method`` says which one ``fs_pct``/``fd_pct`` come from:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,7 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from agent.analysis import analyse
+from agent import inlpca, physical
+from agent.acf import acf_period
+from agent.analysis import WindowAnalysis, analyse
+from agent.features import CYCLE_FEATURES, THESIS_WINDOW
 from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
 from detect.features import evidence
 from detect.training import DETECTOR_FILE
@@ -119,13 +123,20 @@ class Quantifier:
         self.detector = Detector.load(own if own is not None and own.is_file() else DEFAULT_MODELS_DIR / DETECTOR_FILE)
 
     def quantify(self, windows: Sequence[Window], denoise: bool | None = None) -> list[StictionReport]:
-        """Reports in the order of ``windows``; windows of equal length and sample time are batched."""
-        return [r for r, _ in self.quantify_with_details(windows, denoise)]
+        """Reports in the order of ``windows``; windows of equal length and sample time are batched.
+
+        The INLPCA and the models run only where the report can use them: windows called sticky,
+        and declared level loops (their slips may override the verdict); elsewhere every friction
+        number is null anyway, and so are ``explained`` and ``ood_score``."""
+        return [r for r, _ in self._quantify(windows, denoise, details=False)]
 
     def quantify_with_details(
         self, windows: Sequence[Window], denoise: bool | None = None
     ) -> list[tuple[StictionReport, Details]]:
-        """As ``quantify``, with what the pipeline saw in each window."""
+        """As ``quantify``, with what the pipeline saw in each window (the INLPCA runs on every one)."""
+        return self._quantify(windows, denoise, details=True)
+
+    def _quantify(self, windows, denoise, details: bool):
         for w in windows:
             w.validate()
         out: list[tuple[StictionReport, Details] | None] = [None] * len(windows)
@@ -135,15 +146,29 @@ class Quantifier:
         for (_, ts_s), idx in groups.items():
             op = np.stack([np.asarray(windows[i].op, float) for i in idx])
             pv = np.stack([np.asarray(windows[i].pv, float) for i in idx])
-            for j, result in zip(idx, self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise), strict=True):
+            batch = self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise, details)
+            for j, result in zip(idx, batch, strict=True):
                 out[j] = result
         return out
 
-    def _batch(self, op, pv, ts_s, windows, denoise) -> list[tuple[StictionReport, Details]]:
-        a = analyse(op, pv, ts_s, denoise=denoise)
-        angles = np.linspace(-np.pi, np.pi, 129)  # closed: the last point repeats the first
-        curves = a.fit.curve(np.broadcast_to(angles, (op.shape[0], angles.size)))
+    def _batch(self, op, pv, ts_s, windows, denoise, details=True) -> list[tuple[StictionReport, Details | None]]:
         n = op.shape[0]
+        level = np.array([w.process == "level" for w in windows])
+        problems_all = [data_checks(op[i], pv[i]) for i in range(n)]
+        evs = [
+            evidence(op[i], pv[i], ts_s, None if w.sp is None else np.asarray(w.sp, float))
+            for i, w in enumerate(windows)
+        ]
+        verdicts = [
+            decide(self.detector, ev, [c.message for c in blocking(problems)])
+            for ev, problems in zip(evs, problems_all, strict=True)
+        ]
+        need = level | np.array([v.verdict == "stiction" for v in verdicts]) | details
+        a = _analyse_where(op, pv, ts_s, denoise, need, level)
+        curves = None
+        if details:
+            angles = np.linspace(-np.pi, np.pi, 129)  # closed: the last point repeats the first
+            curves = a.fit.curve(np.broadcast_to(angles, (n, angles.size)))
         thesis_in = a.thesis_input
         thesis_ok = np.all(np.isfinite(thesis_in), axis=1)
         thesis = np.full((n, 2), np.nan)
@@ -157,7 +182,6 @@ class Quantifier:
         phys = a.physical
         n_samples = op.shape[1]
         slip_limit = MAX_SLIPS_PER_PERIOD * n_samples * ts_s / np.where(np.isfinite(a.period_s), a.period_s, np.inf)
-        level = np.array([w.process == "level" for w in windows])
         physical_ok = (
             level
             & np.isfinite(phys.fs_pct)
@@ -167,9 +191,7 @@ class Quantifier:
         )
         reports = []
         for i, w in enumerate(windows):
-            problems = data_checks(op[i], pv[i])
-            ev = evidence(op[i], pv[i], ts_s, None if w.sp is None else np.asarray(w.sp, float))
-            verdict = decide(self.detector, ev, [c.message for c in blocking(problems)])
+            problems, ev, verdict = problems_all[i], evs[i], verdicts[i]
             if physical_ok[i] and verdict.verdict in ("other_cause", "no_oscillation"):
                 # the declared level loop's slips read fs and fd: the valve's own evidence outweighs the cycle's shape
                 verdict = Verdict("stiction", verdict.stiction_probability, "stiction", "the slips read fs and fd")
@@ -201,8 +223,9 @@ class Quantifier:
             reports.append(
                 self._report(w, i, a, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
             )
-        details = [Details(curves[i], a.fit.denoised[i]) for i in range(len(windows))]
-        return list(zip(reports, details, strict=True))
+        if not details:
+            return [(r, None) for r in reports]
+        return list(zip(reports, [Details(curves[i], a.fit.denoised[i]) for i in range(n)], strict=True))
 
     def _report(self, w, i, a, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s):
         """Assembly only: the numbers chosen above, as the report's fields."""
@@ -247,6 +270,63 @@ class Quantifier:
             partial=w.full_samples is not None and len(w.op) < w.full_samples,
             interpolated_samples=int(w.interpolated),
         )
+
+
+def _analyse_where(op, pv, ts_s, denoise, need: np.ndarray, level: np.ndarray) -> WindowAnalysis:
+    """``analyse`` of the windows in ``need`` (the physical reading only of the declared level
+    loops), the others left empty: nan, no fit, not denoised; the ACF period for every window."""
+    n = op.shape[0]
+    if need.all() and level.all():
+        return analyse(op, pv, ts_s, denoise=denoise)
+    period_s, regularity = acf_period(op, ts_s)
+    reading = physical.no_reading(n)
+    if level.any():
+        reading = _scatter(reading, physical.read_best(op[level], pv[level], ts_s), level)
+    empty = WindowAnalysis(
+        period_s, regularity, np.full(n, np.nan), np.zeros(n, bool), _no_fit(op.shape),
+        np.full((n, THESIS_WINDOW), np.nan), np.full((n, CYCLE_FEATURES), np.nan), reading,
+    )  # fmt: skip
+    if not need.any():
+        return empty
+    some = analyse(op[need], pv[need], ts_s, denoise=denoise, physical_reading=False)
+    return dataclasses.replace(
+        empty,
+        roughness=_put(empty.roughness, some.roughness, need),
+        noisy=_put(empty.noisy, some.noisy, need),
+        fit=_scatter(empty.fit, some.fit, need),
+        thesis_input=_put(empty.thesis_input, some.thesis_input, need),
+        cycle_input=_put(empty.cycle_input, some.cycle_input, need),
+    )
+
+
+def _put(full: np.ndarray, part: np.ndarray, where: np.ndarray) -> np.ndarray:
+    out = full.copy()
+    out[where] = part
+    return out
+
+
+def _scatter(full, part, where: np.ndarray):
+    """A dataclass of per-window arrays, ``part``'s rows put where ``where`` is true."""
+    values = {}
+    for f in dataclasses.fields(full):
+        a, b = getattr(full, f.name), getattr(part, f.name)
+        values[f.name] = (
+            tuple(_put(x, y, where) for x, y in zip(a, b, strict=True)) if isinstance(a, tuple) else _put(a, b, where)
+        )
+    return type(full)(**values)
+
+
+def _no_fit(shape: tuple[int, int]) -> inlpca.InlpcaFit:
+    n, m = shape
+    h = inlpca.DEFAULT_SETTINGS.hidden_units
+    nan = np.nan
+    params = (
+        np.full((n, h, 2), nan), np.full((n, h), nan), np.full((n, 2, h), nan), np.full((n, 2), nan),
+        np.full((n, 2), nan), np.full((n, 2), nan),
+    )  # fmt: skip
+    return inlpca.InlpcaFit(
+        np.full((n, m), nan), np.ones(n), np.full((n, m, 2), nan), np.full((n, 2), nan), np.full(n, nan), params
+    )
 
 
 def _choose(candidates, op_range_pct: float, verdict: str):

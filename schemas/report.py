@@ -90,9 +90,12 @@ class StictionReport(BaseModel):
     )
     learned: Estimate = Field(description="the learned cycle predictor (ensemble mean and spread)")
     ood_score: float | None = Field(
-        description="distance of the window from the training data: <= 1 inside the range of 99 % of training windows"
+        description="distance of the window from the training data: <= 1 inside the range of 99 % of training windows; "
+        "null where the models did not run (the verdict is not stiction and the loop not a declared level loop)"
     )
-    explained: float | None = Field(description="share of the standardised OP-PV variance the INLPCA curve explains")
+    explained: float | None = Field(
+        description="share of the standardised OP-PV variance the INLPCA curve explains; null where it did not run"
+    )
     oscillating: bool = Field(description="a regular oscillation was found (regularity above 1.5, two cycles or more)")
     warnings: list[str] = Field(default_factory=list)
     model_version: str

@@ -120,3 +120,18 @@ def test_partial_and_interpolated_windows_are_flagged_and_otherwise_the_same_rep
     assert any(w.startswith(f"partial window: {len(r.op[0])} of") for w in flagged.warnings)
     assert any("7 samples interpolated" in w for w in flagged.warnings)
     assert flagged.fs_pct == plain.fs_pct and flagged.verdict == plain.verdict
+
+
+def test_the_inlpca_and_models_run_only_where_the_report_can_use_them(quantifier, cases):
+    specs, r = cases
+    rng = np.random.default_rng(3)
+    quiet = Window("quiet", rng.normal(50, 0.3, 1000), rng.normal(50, 0.3, 1000))  # no oscillation
+    sticky = Window("C1", r.op[0], r.pv[0])  # called sticky without flags
+    lean = quantifier.quantify([quiet, sticky])
+    full = [rep for rep, _ in quantifier.quantify_with_details([quiet, sticky])]
+    assert lean[0].verdict == full[0].verdict == "no_oscillation"
+    assert lean[0].explained is None and lean[0].ood_score is None and not lean[0].denoised
+    assert full[0].explained is not None  # the viewer's path fits every window
+    assert lean[0].fs_pct is None and full[0].fs_pct is None
+    assert lean[1].verdict == "stiction" and lean[1].fs_pct == pytest.approx(full[1].fs_pct, abs=1e-4)
+    assert lean[1].explained == pytest.approx(full[1].explained)
