@@ -75,7 +75,10 @@ def run(args: argparse.Namespace) -> int:
                 process=args.process,
                 sp=export.sp,
             )
-            report, details = quantifier.quantify_with_details([window])[0]
+            if args.plot:  # the plot draws the INLPCA curve: fit it on every window
+                report, details = quantifier.quantify_with_details([window])[0]
+            else:
+                report, details = quantifier.quantify([window])[0], None
             if export.warnings:
                 report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
         except StictionError as e:  # one bad file never stops the others
