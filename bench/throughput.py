@@ -50,6 +50,33 @@ def _exactly_once(rows, interval_s: float) -> dict:
     return {"reports_duplicated": duplicated, "report_intervals_missed": missed}
 
 
+def _loops(mix: str, n: int, window: int, n_live: int):
+    """(head, live, process): the first ``window`` and the next ``n_live`` samples of every loop."""
+    if mix == "canonical":
+        stream = LoopStream(list(loop_specs(n, seed=7).values()))
+        stream.next(1000)
+        return stream.next(window), stream.next(n_live), "level"
+    if mix != "plant":
+        raise ValueError(f"mix {mix!r}: canonical or plant")
+    from types import SimpleNamespace
+
+    from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
+
+    total = window + n_live
+    kept: list = []
+    seed = 7
+    while len(kept) < n:  # diverged runs (an over-aggressive controller) are dropped, as detect's bench does
+        made = simulate_plant(plant_loops(-(-(n - len(kept)) // len(CLASSES)) + 1, seed), 0.5, total)
+        kept += [(o, p, sp) for o, p, sp, _ in made if stable(o, p)]
+        seed += 1
+    op, pv, sp = (np.stack([k[j] for k in kept[:n]]) for j in range(3))
+
+    def part(lo: int, hi: int):  # every loop is streamed at one sample a second, whatever its record's interval
+        return SimpleNamespace(seq=lo, t0_s=float(lo), op=op[:, lo:hi], pv=pv[:, lo:hi], sp=sp[:, lo:hi])
+
+    return part(0, window), part(window, total), None
+
+
 def run_throughput(
     loops: int = 1000,
     seconds: float = 120.0,
@@ -58,24 +85,25 @@ def run_throughput(
     report_every: int = 60,
     agents: int = 1,
     kill_after_s: float | None = None,
+    mix: str = "canonical",
 ) -> dict:
     """``kill_after_s``: SIGKILL the first agent that many seconds into the live phase (the others
-    must take its loops over, each interval reported once)."""
+    must take its loops over, each interval reported once).  ``mix``: ``canonical`` (the thesis's
+    level loop, every valve sticky: the dearest report) or ``plant`` (the plant-like loops of
+    ``sim/plant_loops.py``, one sixth sticky, the others look-alikes or noise)."""
     n_live = int(seconds * speed)
-    specs = list(loop_specs(loops, seed=7).values())
     ids = [f"b{i:05d}" for i in range(loops)]
-    stream = LoopStream(specs)
-    stream.next(1000)
-    head = stream.next(window)
-    live = stream.next(n_live)
+    head, live, process = _loops(mix, loops, window, n_live)
     endpoint = zenoh_config.free_loopback_endpoint()
     received: list[tuple[str, float, float]] = []  # loop, t_end_s, arrival
+    verdicts: dict[str, int] = {}
     lock = threading.Lock()
 
     def on_report(sample):
         r = json.loads(sample.payload.to_bytes())
         with lock:
             received.append((r["loop_id"], r["t_end_s"], time.monotonic()))
+            verdicts[r["verdict"]] = verdicts.get(r["verdict"], 0) + 1
 
     health: dict[str, dict] = {}
     procs = []
@@ -129,7 +157,7 @@ def run_throughput(
             tick.wait(0.2)
         put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
         pubs = [session.declare_publisher(keys.samples(PREFIX, i), **put) for i in ids]
-        ts = stream.ts_s
+        ts = 1.0
         # fill the windows in one burst, loop j short of full by j mod report_every samples: loops then fall
         # due at staggered times, as in a plant, not all in the same second
         short = [int(j % report_every) for j in range(loops)]
@@ -144,7 +172,7 @@ def run_throughput(
                     head.op[j, sl],
                     head.pv[j, sl],
                     head.sp[j, sl],
-                    "level",
+                    process,
                 )
             )
         sent_at = np.zeros(n_live)
@@ -173,7 +201,7 @@ def run_throughput(
                         live.op[j, sl],
                         live.pv[j, sl],
                         live.sp[j, sl],
-                        "level",
+                        process,
                     )
                 )
             sent_at[sl] = time.monotonic()
@@ -230,6 +258,8 @@ def run_throughput(
         "samples_lost": published * min(agents, 2) - samples_agents if health and killed_at is None else None,
         "killed_agent_at_s": None if killed_at is None else killed_at / speed,
         **_exactly_once(rows, report_every * ts),
+        "mix": mix,
+        "verdicts": verdicts,
         "rejected": rejected,
         "agent_cpu_share": [(s[0] - c) / wall for s, c in zip(stats, cpu0, strict=True)],
         "agent_peak_rss_mb": max(s[1] for s in stats),

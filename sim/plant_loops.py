@@ -119,10 +119,11 @@ def plant_loops(n_per_class: int, seed: int) -> list[PlantLoop]:
 
 
 def simulate_plant(
-    loops: list[PlantLoop], warmup_windows: float = 1.0
+    loops: list[PlantLoop], warmup_windows: float = 1.0, samples: int = WINDOW_SAMPLES
 ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, float]]:
-    """``(op, pv, sp, ts_s)`` of each loop as its historian records it: ``WINDOW_SAMPLES`` samples after a
-    warm-up, noise and load in absolute % of span (the loop's controller sees both).
+    """``(op, pv, sp, ts_s)`` of each loop as its historian records it: ``samples`` samples after a
+    warm-up of ``warmup_windows`` times as many, noise and load in absolute % of span (the loop's
+    controller sees both).
 
     A setpoint move of ``d`` enters as an output offset of ``-d`` that the record does not show: the
     controller sees the same error either way."""
@@ -131,19 +132,19 @@ def simulate_plant(
     for i, loop in enumerate(loops):
         by_every.setdefault(loop.every, []).append(i)
     for every, idx in by_every.items():
-        n = int(WINDOW_SAMPLES * every * (1 + warmup_windows))
+        n = int(samples * every * (1 + warmup_windows))
         t_s = np.arange(n, dtype=float)
         specs = [loops[i].spec for i in idx]
         w = external_oscillation(specs, t_s)
         z = np.zeros_like(w)
         moves = np.zeros_like(w)
-        start = n - WINDOW_SAMPLES * every
+        start = n - samples * every
         for row, i in enumerate(idx):
             rng = np.random.default_rng(loops[i].spec.seed)
             z[row] = loops[i].noise_pct * unit_shape("gaussian", n, 1.0, rng)
             w[row] += loops[i].load_pct * unit_shape("brownian", n, 1.0, rng)
             for share, step_pct in loops[i].sp_steps:
-                moves[row, start + int(share * WINDOW_SAMPLES * every) :] += step_pct
+                moves[row, start + int(share * samples * every) :] += step_pct
         op, pv, _ = run_batch(build_batch(specs), w, z - moves)
         pv = pv + moves
         keep = slice(start + every - 1, n, every)

@@ -46,6 +46,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument(
         "--kill-after", type=float, metavar="S", help="SIGKILL the first agent S seconds into the live phase"
     )
+    t.add_argument(
+        "--mix",
+        choices=["canonical", "plant"],
+        default="canonical",
+        help="canonical: every loop the thesis's sticky level loop (the dearest reports); plant: plant-like "
+        "loops, a sixth sticky (default canonical)",
+    )
     t.add_argument("--json", action="store_true")
     b = sub.add_parser("bridge", help="OPC UA plant server -> bridge -> subscriber: samples lost, latency, CPU")
     b.add_argument("--loops", type=int, default=1000)
@@ -277,6 +284,7 @@ def _throughput(args) -> None:
         report_every=args.report_every,
         agents=args.agents,
         kill_after_s=args.kill_after,
+        mix=args.mix,
     )
     f |= {"host": _machine()}
     if args.json:
@@ -287,7 +295,8 @@ def _throughput(args) -> None:
         if f["latency_p50_s"] is not None
         else "no reports"
     )
-    print(f"{f['loops']} loops at {f['speed']:g} Hz, {f['agents']} agent(s), {f['seconds']:g} s")
+    print(f"{f['loops']} {f['mix']} loops at {f['speed']:g} Hz, {f['agents']} agent(s), {f['seconds']:g} s")
+    print(f"  verdicts reported: {', '.join(f'{k} {v}' for k, v in sorted(f['verdicts'].items()))}")
     print(
         f"  samples/s ingested {f['samples_per_s']:.0f}   reports/s {f['reports_per_s']:.1f} "
         f"({f['reports']} of {f['reports_expected']} expected)"
