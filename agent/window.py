@@ -27,6 +27,14 @@ class RollingWindow:
 
     def update(self, seq: int, t0_s: float, op, pv) -> RollingWindow:
         n = len(op)
+        if n <= 4:  # a sample or a few a message (1 Hz streams): plain indexing, no array set-up
+            for k in range(n):
+                j = (seq + k) % self.size
+                self._op[j], self._pv[j] = op[k], pv[k]
+            self.count = min(self.size, self.count + n)
+            self.next_seq = seq + n
+            self.t_end_s = t0_s + (n - 1) * self.ts_s
+            return self
         op, pv = np.asarray(op, float)[-self.size :], np.asarray(pv, float)[-self.size :]
         m = op.size
         start = (seq + n - m) % self.size

@@ -46,13 +46,13 @@ def stiction_index(x: np.ndarray) -> float:
     apexes = np.linspace(0.1, 0.9, APEXES)[:, None]
     shapes = np.vstack([np.sin(np.pi * u), np.where(u <= apexes, u / apexes, (1 - u) / (1 - apexes))])  # [S, L]
 
+    starts = np.cumsum(m) - m  # the half cycles are contiguous runs of the flat arrays
+
     def per_half(w):
-        return np.bincount(seg, weights=w, minlength=a.size)
+        return np.add.reduceat(w, starts, axis=-1)
 
     sy, syy = per_half(yv), per_half(yv * yv)
-    ss = np.stack([per_half(row) for row in shapes])
-    sss = np.stack([per_half(row * row) for row in shapes])
-    ssy = np.stack([per_half(row * yv) for row in shapes])
+    ss, sss, ssy = per_half(shapes), per_half(shapes * shapes), per_half(shapes * yv)
     cyy = syy - sy * sy / m
     css = sss - ss * ss / m
     csy = ssy - ss * sy / m
