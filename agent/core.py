@@ -148,7 +148,7 @@ class AgentCore:
                 self.reject("gap", f"{loop_id} seq {batch.seq} > {w.next_seq}: window restarted")
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
                 state.new_since_report, state.filled = 0, None
-        w.update(batch.seq, batch.t0_s, batch.op, batch.pv)
+        w.update(batch.seq, batch.t0_s, batch.op, batch.pv, batch.sp)
         state.process = batch.process
         state.new_since_report += len(batch.op)
         state.arrived_at = now_s
@@ -161,12 +161,14 @@ class AgentCore:
         w = state.window
         start, missing = w.next_seq, batch.seq - w.next_seq
         op, pv = w.get()
+        sp = w.get_sp()
         frac = np.arange(1, missing + 1) / (missing + 1)
         w.update(
             start,
             w.t_end_s + w.ts_s,
             op[-1] + frac * (batch.op[0] - op[-1]),
             pv[-1] + frac * (batch.pv[0] - pv[-1]),
+            None if sp is None or batch.sp is None else sp[-1] + frac * (batch.sp[0] - sp[-1]),
         )
         state.filled = (state.filled or []) + [(start, missing)]
         state.new_since_report += missing
@@ -202,6 +204,7 @@ class AgentCore:
                     w.ts_s,
                     w.t_end_s,
                     state.process,
+                    sp=w.get_sp(),
                     full_samples=full,
                     interpolated=state.interpolated(),
                 )

@@ -10,10 +10,12 @@ memory of 10,000 loops' windows; the pipeline computes in float64."""
 
 
 class RollingWindow:
-    """The last ``size`` samples of OP and PV, numbered by the stream's ``seq``.
+    """The last ``size`` samples of OP and PV (and SP where the stream has it), numbered by ``seq``.
 
     ``update`` appends a batch that continues the stream; ``get`` returns the
-    window oldest first; ``snapshot`` is a plain dict for inspection.
+    window oldest first, ``get_sp`` its setpoint (None unless every sample held has one);
+    ``snapshot`` is a plain dict for inspection.  A setpoint that never moves costs one number,
+    not a ring.
     """
 
     def __init__(self, size: int, ts_s: float):
@@ -24,8 +26,12 @@ class RollingWindow:
         self.count = 0  # samples held, at most size
         self.next_seq: int | None = None
         self.t_end_s: float | None = None
+        self._sp: np.ndarray | None = None  # allocated once the setpoint moves
+        self._sp_const: float | None = None
+        self._sp_missing_until = 0  # samples before this seq may lack a setpoint
 
-    def update(self, seq: int, t0_s: float, op, pv) -> RollingWindow:
+    def update(self, seq: int, t0_s: float, op, pv, sp=None) -> RollingWindow:
+        self._update_sp(seq, len(op), sp)
         n = len(op)
         if n <= 4:  # a sample or a few a message (1 Hz streams): plain indexing, no array set-up
             for k in range(n):
@@ -44,6 +50,29 @@ class RollingWindow:
         self.next_seq = seq + n
         self.t_end_s = t0_s + (n - 1) * self.ts_s
         return self
+
+    def _update_sp(self, seq: int, n: int, sp) -> None:
+        if sp is None:
+            self._sp_missing_until = seq + n
+            return
+        if self._sp is None:
+            const = float(sp[0]) if self._sp_const is None else self._sp_const
+            if all(float(v) == const for v in sp):
+                self._sp_const = const
+                return
+            self._sp = np.full(self.size, const, DTYPE)
+        sp = np.asarray(sp, float)[-self.size :]
+        idx = (seq + n - sp.size + np.arange(sp.size)) % self.size
+        self._sp[idx] = sp
+
+    def get_sp(self) -> np.ndarray | None:
+        """The setpoint of the samples held, oldest first; None where any of them had none."""
+        if self.next_seq is None or self.next_seq - self.count < self._sp_missing_until:
+            return None
+        if self._sp is None:
+            return None if self._sp_const is None else np.full(self.count, self._sp_const, DTYPE)
+        idx = (self.next_seq - self.count + np.arange(self.count)) % self.size
+        return self._sp[idx]
 
     def holds(self, seq: int, op, pv) -> bool:
         """These samples, at these sequence numbers, are already in the window (a repeated message)."""

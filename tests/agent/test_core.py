@@ -171,3 +171,15 @@ def test_after_the_owner_dies_the_replica_reports_every_interval_exactly_once():
     for lid, ends in reported.items():
         steps = np.diff(ends)
         assert len(ends) >= 15 and np.all(steps == 50), (lid, ends)  # one report each 50 samples, none twice
+
+
+def test_the_due_window_carries_the_streamed_setpoint():
+    core = _core()
+    for seq in range(0, 100, 10):
+        core.ingest(KEY, _payload(seq, sp=[float(seq)] * 10), JSON, 0.0)
+    (w, _), *_ = core.due()
+    np.testing.assert_array_equal(w.sp, np.repeat(np.arange(0, 100, 10), 10).astype(np.float32))
+    plain = _core()
+    for seq in range(0, 100, 10):
+        plain.ingest(KEY, _payload(seq), JSON, 0.0)
+    assert plain.due()[0][0].sp is None

@@ -22,3 +22,17 @@ def test_window_is_always_the_tail_of_the_stream():
         assert w.t_end_s == seq - 1 and w.next_seq == seq
     assert w.snapshot()["count"] == 300
     assert w.holds(seq - 10, stream[seq - 10 : seq], -stream[seq - 10 : seq])  # a repeat of float64 samples is seen
+
+
+def test_the_setpoint_is_kept_beside_the_window_and_costs_nothing_while_it_stands_still():
+    w = RollingWindow(100, 1.0)
+    w.update(0, 0.0, np.zeros(60), np.zeros(60), np.full(60, 50.0))
+    assert w._sp is None and np.array_equal(w.get_sp(), np.full(60, 50.0))  # one number, no ring yet
+    w.update(60, 60.0, np.zeros(3), np.zeros(3), [50.0, 52.0, 52.0])  # the operator moves it
+    w.update(63, 63.0, np.zeros(57), np.zeros(57), np.full(57, 52.0))
+    sp = w.get_sp()
+    assert sp.size == 100 and np.all(sp[:41] == 50.0) and np.all(sp[41:] == 52.0)  # seq 20..60 at 50, then 52
+    w.update(120, 120.0, np.zeros(10), np.zeros(10))  # a batch without a setpoint
+    assert w.get_sp() is None
+    w.update(130, 130.0, np.zeros(100), np.zeros(100), np.full(100, 52.0))  # slid out of the window
+    assert np.array_equal(w.get_sp(), np.full(100, 52.0))
