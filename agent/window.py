@@ -31,25 +31,24 @@ class RollingWindow:
         self._sp_missing_until = 0  # samples before this seq may lack a setpoint
 
     def update(self, seq: int, t0_s: float, op, pv, sp=None) -> RollingWindow:
-        self._update_sp(seq, len(op), sp)
         n = len(op)
+        self._update_sp(seq, n, sp)
         if n <= 4:  # a sample or a few a message (1 Hz streams): plain indexing, no array set-up
             for k in range(n):
                 j = (seq + k) % self.size
                 self._op[j], self._pv[j] = op[k], pv[k]
-            self.count = min(self.size, self.count + n)
-            self.next_seq = seq + n
-            self.t_end_s = t0_s + (n - 1) * self.ts_s
-            return self
-        op, pv = np.asarray(op, float)[-self.size :], np.asarray(pv, float)[-self.size :]
-        m = op.size
-        start = (seq + n - m) % self.size
-        idx = (start + np.arange(m)) % self.size
-        self._op[idx], self._pv[idx] = op, pv
+        else:
+            op, pv = np.asarray(op, float)[-self.size :], np.asarray(pv, float)[-self.size :]
+            idx = self._tail(seq, n, op.size)
+            self._op[idx], self._pv[idx] = op, pv
         self.count = min(self.size, self.count + n)
         self.next_seq = seq + n
         self.t_end_s = t0_s + (n - 1) * self.ts_s
         return self
+
+    def _tail(self, seq: int, n: int, m: int) -> np.ndarray:
+        """Ring positions of the last ``m`` of the ``n`` samples that start at ``seq``."""
+        return (seq + n - m + np.arange(m)) % self.size
 
     def _update_sp(self, seq: int, n: int, sp) -> None:
         if sp is None:
@@ -62,8 +61,7 @@ class RollingWindow:
                 return
             self._sp = np.full(self.size, const, DTYPE)
         sp = np.asarray(sp, float)[-self.size :]
-        idx = (seq + n - sp.size + np.arange(sp.size)) % self.size
-        self._sp[idx] = sp
+        self._sp[self._tail(seq, n, sp.size)] = sp
 
     def get_sp(self) -> np.ndarray | None:
         """The setpoint of the samples held, oldest first; None where any of them had none."""
