@@ -143,6 +143,12 @@ def detect(x: np.ndarray, ts_s: float = 1.0) -> Oscillation:
     return Oscillation(oscillating, float(period * ts_s), float(r), float(cycles), amplitude)
 
 
+def run_positions(lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For runs of ``lengths`` laid end to end: each element's run, and its position within it."""
+    run = np.repeat(np.arange(lengths.size), lengths)
+    return run, np.arange(run.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+
+
 def _amplitude(y: np.ndarray, crossings: np.ndarray) -> float:
     """The median over half cycles of the 90th percentile of |y| in each: its peak, without the
     noise's extremes.  All half cycles at once: one sort by (half cycle, |y|), then numpy's linear
@@ -153,9 +159,8 @@ def _amplitude(y: np.ndarray, crossings: np.ndarray) -> float:
     if a.size == 0:
         return float(np.ptp(y)) / 2
     m = b - a
-    seg = np.repeat(np.arange(a.size), m)
-    idx = np.arange(seg.size) - np.repeat(np.cumsum(m) - m, m) + np.repeat(a, m)
-    v = np.abs(y[idx])
+    seg, k = run_positions(m)
+    v = np.abs(y[np.repeat(a, m) + k])
     v = v[np.lexsort((v, seg))]  # sorted within each half cycle, half cycles in order
     start = np.cumsum(m) - m
     pos = 0.9 * (m - 1)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from detect.oscillation import detrend, half_cycles
+from detect.oscillation import detrend, half_cycles, run_positions
 
 STICTION = 0.6
 NO_STICTION = 0.4
@@ -39,8 +39,7 @@ def stiction_index(x: np.ndarray) -> float:
     a, m = a[keep], m[keep]
     if a.size == 0:
         return float("nan")
-    seg = np.repeat(np.arange(a.size), m)
-    k = np.arange(seg.size) - np.repeat(np.cumsum(m) - m, m)  # position within the half cycle
+    _, k = run_positions(m)  # each sample's position within its half cycle
     u = k / np.repeat(m - 1, m)
     yv = y[np.repeat(a, m) + k]
     apexes = np.linspace(0.1, 0.9, APEXES)[:, None]
