@@ -35,14 +35,6 @@ def _start(*argv: str, stdout=subprocess.DEVNULL) -> subprocess.Popen:
     )
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _wait(condition, timeout_s: float, what: str) -> None:
     tick = threading.Event()
     deadline = time.monotonic() + timeout_s
@@ -56,7 +48,7 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
     import zenoh
 
     endpoint = zenoh_config.free_loopback_endpoint()
-    opc = f"opc.tcp://127.0.0.1:{_free_port()}"
+    opc = f"opc.tcp://127.0.0.1:{zenoh_config.free_loopback_port()}"
     arrivals: dict[str, list[tuple[int, int, float, float]]] = {}  # loop -> (seq, n, t_last, arrival)
     lock = threading.Lock()
 

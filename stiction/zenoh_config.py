@@ -22,10 +22,15 @@ def add_arguments(p: argparse.ArgumentParser, listen_default: bool = True) -> No
     p.add_argument("--config", type=Path, help="a full Zenoh JSON5 configuration file; flags override it")
 
 
-def free_loopback_endpoint() -> str:
+def free_loopback_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on now (for Zenoh, or an OPC UA server in tests)."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
+        return s.getsockname()[1]
+
+
+def free_loopback_endpoint() -> str:
+    return f"tcp/127.0.0.1:{free_loopback_port()}"
 
 
 def build(listen: list[str] | None = None, connect: list[str] | None = None, config_file: Path | None = None):

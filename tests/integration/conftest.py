@@ -1,3 +1,5 @@
+import subprocess
+import sys
 import threading
 import time
 
@@ -14,6 +16,13 @@ def wait_until(condition, timeout_s: float = 30.0, what: str = "condition") -> N
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out after {timeout_s} s waiting for {what() if callable(what) else what}")
         tick.wait(0.05)
+
+
+def start_cli(*argv: str) -> subprocess.Popen:
+    """``stiction ARGV...`` as its own process, as a user starts it; output kept for the asserts."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
 
 
 @pytest.fixture(scope="session")

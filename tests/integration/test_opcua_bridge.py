@@ -9,9 +9,6 @@ with a bad status (the plant's injected sensor fault) is dropped and counted.
 
 import json
 import signal
-import socket
-import subprocess
-import sys
 import threading
 import time
 
@@ -22,7 +19,7 @@ from bridge.loopfile import dumps, load
 from schemas import keys
 from schemas.report import StictionReport
 from stiction import zenoh_config
-from tests.integration.conftest import wait_until
+from tests.integration.conftest import start_cli, wait_until
 
 pytest.importorskip("asyncua")
 
@@ -31,25 +28,13 @@ LOOPS = 6
 SPEED = 10  # a sample every 0.1 s
 
 
-def _start(*argv):
-    return subprocess.Popen(
-        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
     endpoint = zenoh_config.free_loopback_endpoint()
-    opc = f"opc.tcp://127.0.0.1:{_free_port()}"
+    opc = f"opc.tcp://127.0.0.1:{zenoh_config.free_loopback_port()}"
     served = tmp_path / "served.toml"
     plant_args = ["plant", "--loops", str(LOOPS), "--endpoint", opc, "--speed", str(SPEED), "--loop-file", str(served),
                   "--fault-every", "40"]  # a sensor fault on plant-00000's PV every 4 s  # fmt: skip
-    procs = {"plant": _start(*plant_args)}
+    procs = {"plant": start_cli(*plant_args)}
     reports: dict[str, list[tuple[StictionReport, float]]] = {}
     health: dict[str, list[dict]] = {"bridge": [], "agent": []}
     lock = threading.Lock()
@@ -78,7 +63,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
                 session.declare_subscriber(f"{PREFIX}/agent/*/health", on_health),
             ]
             common = ["--prefix", PREFIX, "--connect", endpoint]
-            procs["bridge"] = _start(
+            procs["bridge"] = start_cli(
                 "bridge",
                 "opcua",
                 "--loop-file",
@@ -91,7 +76,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
                 "--listen",
                 zenoh_config.free_loopback_endpoint(),
             )
-            procs["agent"] = _start(
+            procs["agent"] = start_cli(
                 "agent",
                 "--agent-id",
                 "a1",
@@ -118,7 +103,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
             procs["plant"].send_signal(signal.SIGTERM)  # the server goes away ...
             assert procs["plant"].wait(timeout=20) == 0, procs["plant"].stderr.read()
             wait_until(lambda: not health["bridge"][-1]["connected"], 15, "the bridge to notice")
-            procs["plant"] = _start(*plant_args)  # ... and comes back
+            procs["plant"] = start_cli(*plant_args)  # ... and comes back
             wait_until(lambda: health["bridge"][-1]["connected"], 30, "the bridge to reconnect")
             back = time.monotonic()
             wait_until(

@@ -13,8 +13,7 @@ import pytest
 import zenoh
 
 from stiction import zenoh_config
-from tests.integration.conftest import wait_until
-from tests.integration.test_opcua_bridge import _free_port, _start
+from tests.integration.conftest import start_cli, wait_until
 
 pytest.importorskip("asyncua")
 PREFIX = "test/opcua-security"
@@ -38,11 +37,11 @@ def _certificates(folder: Path) -> None:
 
 def test_the_bridge_reads_a_secure_server_with_its_certificate_and_is_refused_without(tmp_path):
     _certificates(tmp_path)
-    opc = f"opc.tcp://127.0.0.1:{_free_port()}"
+    opc = f"opc.tcp://127.0.0.1:{zenoh_config.free_loopback_port()}"
     loop_file = tmp_path / "loops.toml"
     endpoint = zenoh_config.free_loopback_endpoint()
     procs = {
-        "plant": _start(
+        "plant": start_cli(
             "plant",
             "--loops",
             "2",
@@ -78,7 +77,7 @@ def test_the_bridge_reads_a_secure_server_with_its_certificate_and_is_refused_wi
         with zenoh.open(zenoh_config.build([endpoint])) as session:
             sub = session.declare_subscriber(f"{PREFIX}/loop/*/samples", on_samples)
             security = f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'client-cert.der'},{tmp_path / 'client-key.pem'}"
-            procs["bridge"] = _start("bridge", "opcua", "--loop-file", str(loop_file), "--security", security,
+            procs["bridge"] = start_cli("bridge", "opcua", "--loop-file", str(loop_file), "--security", security,
                                      "--connect", endpoint, "--prefix", PREFIX)  # fmt: skip
             wait_until(lambda: {b["loop_id"] for b in batches} == {"plant-00000", "plant-00001"}, 60, "samples")
             sub.undeclare()

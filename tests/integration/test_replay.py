@@ -13,16 +13,10 @@ import zenoh
 from schemas import keys
 from schemas.report import StictionReport
 from stiction import zenoh_config
-from tests.integration.conftest import wait_until
+from tests.integration.conftest import start_cli, wait_until
 
 PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
 PREFIX = "test/replay"
-
-
-def _start(*argv):
-    return subprocess.Popen(
-        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
 
 
 def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path):
@@ -48,12 +42,12 @@ def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
         try:
             common = ["--prefix", PREFIX, "--connect", endpoint]
-            procs["agent"] = _start("agent", "--first-window", "200", "--report-every", "100", *common,
+            procs["agent"] = start_cli("agent", "--first-window", "200", "--report-every", "100", *common,
                                     "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
             wait_until(
                 lambda: any(r.ok for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)), 30, "agent"
             )
-            procs["replay"] = _start("replay", str(tmp_path), "--speed", "2000", "--rate", "4", *common,
+            procs["replay"] = start_cli("replay", str(tmp_path), "--speed", "2000", "--rate", "4", *common,
                                      "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
             assert procs["replay"].wait(timeout=60) == 1  # one file could not be read
             err = procs["replay"].stderr.read()

@@ -5,8 +5,6 @@ loopback, and a plain Zenoh subscriber on ``{prefix}/loop/*/report``.
 """
 
 import signal
-import subprocess
-import sys
 import threading
 import time
 
@@ -15,16 +13,10 @@ import zenoh
 from schemas import keys
 from schemas.report import StictionReport
 from stiction import zenoh_config
-from tests.integration.conftest import wait_until
+from tests.integration.conftest import start_cli, wait_until
 
 PREFIX = "test/scale"
 LOOPS = 12
-
-
-def _start(*argv):
-    return subprocess.Popen(
-        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
 
 
 def test_two_agents_share_loops_and_take_over(tmp_path):
@@ -44,7 +36,7 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
         try:
             for name in ("agent-a", "agent-b"):
-                procs[name] = _start(
+                procs[name] = start_cli(
                     "agent", "--agent-id", name, "--listen", zenoh_config.free_loopback_endpoint(), *agent_args
                 )
 
@@ -56,7 +48,7 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
                 }
 
             wait_until(lambda: alive() == {keys.agent_token(PREFIX, a) for a in procs}, 60, "both agents' tokens")
-            procs["sim"] = _start(
+            procs["sim"] = start_cli(
                 "sim",
                 "--loops",
                 str(LOOPS),

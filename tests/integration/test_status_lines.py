@@ -4,23 +4,15 @@ and the health message carries the same rates."""
 import json
 import re
 import signal
-import subprocess
-import sys
 import threading
 
 import zenoh
 
 from stiction import zenoh_config
 from stiction.cli import build_parser
-from tests.integration.conftest import wait_until
+from tests.integration.conftest import start_cli, wait_until
 
 PREFIX = "test/status"
-
-
-def _start(*argv):
-    return subprocess.Popen(
-        [sys.executable, "-m", "stiction.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
 
 
 def test_sim_and_agent_print_status_lines_and_the_health_carries_the_rates():
@@ -37,9 +29,9 @@ def test_sim_and_agent_print_status_lines_and_the_health_carries_the_rates():
             seen.set()
 
     with zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as s:
-        sim = _start("sim", "--loops", "5", "--speed", "100", "--listen", endpoint, "--prefix", PREFIX,
+        sim = start_cli("sim", "--loops", "5", "--speed", "100", "--listen", endpoint, "--prefix", PREFIX,
                      "--status-every", "1")  # fmt: skip
-        agent = _start("agent", "--connect", endpoint, "--listen", zenoh_config.free_loopback_endpoint(),
+        agent = start_cli("agent", "--connect", endpoint, "--listen", zenoh_config.free_loopback_endpoint(),
                        "--prefix", PREFIX, "--status-every", "1", "--window", "300", "--report-every", "50",
                        "--first-window", "100")  # fmt: skip
         sub = s.declare_subscriber(f"{PREFIX}/agent/*/health", on_health)
