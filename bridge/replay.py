@@ -33,6 +33,8 @@ class Track:
     mv: np.ndarray | None = None
     mode: np.ndarray | None = None
     process: str | None = None
+    source: str | None = None
+    """The export it was read from."""
 
     @property
     def duration_s(self) -> float:
@@ -54,7 +56,9 @@ def loop_ids(paths: Sequence[Path]) -> list[str]:
 
 def track(loop_id: str, export, process: str | None = None) -> Track:
     t0 = float(export.t_s[0]) if export.t_s is not None and len(export.t_s) else 0.0
-    return Track(loop_id, export.ts_s, t0, export.op, export.pv, export.sp, export.mv, export.mode, process)
+    return Track(
+        loop_id, export.ts_s, t0, export.op, export.pv, export.sp, export.mv, export.mode, process, str(export.path)
+    )
 
 
 class Schedule:

@@ -150,9 +150,7 @@ def _measured(paths) -> tuple[list, dict[str, str | None]]:
     """Replay tracks of ``paths``, and each loop's label where a ``loops.json`` gives one."""
     if not paths:
         return [], {}
-    from agent.historian import expand_paths
     from bench.measured import labels as read_labels
-    from bridge.replay import loop_ids
 
     tracks, failed = read_tracks(paths, None, None, "demo")
     if not tracks:
@@ -160,9 +158,7 @@ def _measured(paths) -> tuple[list, dict[str, str | None]]:
     known: dict[str, dict] = {}
     for p in paths:
         known.update(read_labels(p if p.is_dir() else p.parent))
-    files = expand_paths(paths)
-    by_id = dict(zip(loop_ids(files), files, strict=True))
-    return tracks, {t.loop_id: known.get(by_id[t.loop_id].stem, {}).get("label") for t in tracks}
+    return tracks, {t.loop_id: known.get(Path(t.source).stem, {}).get("label") for t in tracks}
 
 
 def run(args: argparse.Namespace) -> int:
