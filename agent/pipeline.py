@@ -163,18 +163,20 @@ class Quantifier:
             decide(self.detector, ev, [c.message for c in blocking(problems)])
             for ev, problems in zip(evs, problems_all, strict=True)
         ]
-        need = level | np.array([v.verdict == "stiction" for v in verdicts]) | details
-        a = _analyse_where(op, pv, ts_s, denoise, need, level)
+        use = level | np.array([v.verdict == "stiction" for v in verdicts])
+        # the viewer's path fits every window for its curves; the report reads the fit only where
+        # it can use it, so that a report is the same with and without a viewer
+        a = _analyse_where(op, pv, ts_s, denoise, use | details, level)
         curves = None
         if details:
             angles = np.linspace(-np.pi, np.pi, 129)  # closed: the last point repeats the first
             curves = a.fit.curve(np.broadcast_to(angles, (n, angles.size)))
         thesis_in = a.thesis_input
-        thesis_ok = np.all(np.isfinite(thesis_in), axis=1)
+        thesis_ok = use & np.all(np.isfinite(thesis_in), axis=1)
         thesis = np.full((n, 2), np.nan)
         if thesis_ok.any():
             thesis[thesis_ok] = self.thesis.run(thesis_in[thesis_ok])["fs_fd_pct"]
-        cycle_ok = np.all(np.isfinite(a.cycle_input), axis=1)
+        cycle_ok = use & np.all(np.isfinite(a.cycle_input), axis=1)
         learned, spread, ood = np.full((n, 2), np.nan), np.full((n, 2), np.nan), np.full(n, np.nan)
         if cycle_ok.any():
             out = self.cycle.run(a.cycle_input[cycle_ok])
@@ -221,13 +223,13 @@ class Quantifier:
             elif method == "none":
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
             reports.append(
-                self._report(w, i, a, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
+                self._report(w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
             )
         if not details:
             return [(r, None) for r in reports]
         return list(zip(reports, [Details(curves[i], a.fit.denoised[i]) for i in range(n)], strict=True))
 
-    def _report(self, w, i, a, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s):
+    def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s):
         """Assembly only: the numbers chosen above, as the report's fields."""
         fs, fd, fs_se, fd_se = (_opt(v) for v in estimate)
         s_pct = j_pct = s_se = j_se = None
@@ -255,13 +257,13 @@ class Quantifier:
             fs_se_pct=fs_se,
             fd_se_pct=fd_se,
             period_s=_opt(period),
-            denoised=bool(a.noisy[i]),
+            denoised=bool(a.noisy[i] and use[i]),
             method=method,
             thesis=_estimate(shown["thesis"]),
             physical=_estimate(shown["physical"]) if level[i] and shown["physical"] is not None else None,
             learned=_estimate(shown["learned"]),
             ood_score=_opt(ood[i]),
-            explained=_opt(a.fit.explained[i]),
+            explained=_opt(a.fit.explained[i]) if use[i] else None,
             oscillating=ev.oscillation.oscillating,
             warnings=warnings,
             model_version=self.model_version,

@@ -128,10 +128,33 @@ def test_the_inlpca_and_models_run_only_where_the_report_can_use_them(quantifier
     quiet = Window("quiet", rng.normal(50, 0.3, 1000), rng.normal(50, 0.3, 1000))  # no oscillation
     sticky = Window("C1", r.op[0], r.pv[0])  # called sticky without flags
     lean = quantifier.quantify([quiet, sticky])
-    full = [rep for rep, _ in quantifier.quantify_with_details([quiet, sticky])]
+    with_details = quantifier.quantify_with_details([quiet, sticky])
+    full = [rep for rep, _ in with_details]
     assert lean[0].verdict == full[0].verdict == "no_oscillation"
     assert lean[0].explained is None and lean[0].ood_score is None and not lean[0].denoised
-    assert full[0].explained is not None  # the viewer's path fits every window
+    assert np.isfinite(with_details[0][1].curve).all()  # the viewer's path fits every window for its curve
     assert lean[0].fs_pct is None and full[0].fs_pct is None
     assert lean[1].verdict == "stiction" and lean[1].fs_pct == pytest.approx(full[1].fs_pct, abs=1e-4)
     assert lean[1].explained == pytest.approx(full[1].explained)
+
+
+def test_a_report_is_the_same_with_and_without_the_viewers_details(quantifier, cases):
+    specs, r = cases
+    rng = np.random.default_rng(4)
+    t = np.arange(1000)
+    windows = [
+        Window("quiet", rng.normal(50, 0.3, 1000), rng.normal(50, 0.3, 1000)),
+        Window("sine", 50 + 5 * np.sin(2 * np.pi * t / 80) + rng.normal(0, 0.2, 1000), 50 + 3 * np.sin(2 * np.pi * (t - 10) / 80)),
+        Window("C1", r.op[0], r.pv[0]),
+        Window("C2-level", r.op[1], r.pv[1], process="level"),
+    ]
+    lean = quantifier.quantify(windows)
+    full = [rep for rep, _ in quantifier.quantify_with_details(windows)]
+    for a, b in zip(lean, full, strict=True):
+        da, db = a.model_dump(), b.model_dump()
+        assert da.keys() == db.keys()
+        for k in da:
+            if isinstance(da[k], float):
+                assert da[k] == pytest.approx(db[k], rel=1e-6, abs=1e-4), (a.loop_id, k)
+            elif k not in ("thesis", "learned", "physical"):
+                assert da[k] == db[k], (a.loop_id, k)
