@@ -7,15 +7,17 @@ that it reports at once when the owner's liveliness token disappears.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import logging
+import math
 from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 from pydantic import ValidationError
 
-from agent.pipeline import Window
+from agent.pipeline import Reading, Window
 from agent.window import RollingWindow
 from schemas import keys
 from schemas.messages import SampleBatch
@@ -41,6 +43,14 @@ class CoreSettings:
     """Gaps of the stream up to this many samples are filled by linear interpolation (counted, and
     said in the report); longer gaps restart the window.  None: a tenth of the window."""
 
+    estimate_every: int = 5
+    """A loop that stays sticky has its friction read afresh every this many reports (five minutes
+    at 1 Hz); the reports between carry the last reading, with the end of the window it came from
+    (``estimate_t_end_s``).  Its verdict and data checks are read from every window.  1: every report."""
+
+    min_readings: int = 10
+    """Fresh friction readings granted in one pass whatever the share (a small plant never waits)."""
+
     @property
     def fill_limit(self) -> int:
         return self.window_samples // 10 if self.max_fill_samples is None else self.max_fill_samples
@@ -61,6 +71,11 @@ class _Loop:
     """Samples held before this loop's first report."""
     filled: list[tuple[int, int]] | None = None
     """(first seq, samples) of each interpolated gap still in the window."""
+    reading: Reading | None = None
+    """The last friction reading of this loop while it is called sticky, and the reports that used it."""
+    reading_reports: int = 0
+    verdict: str | None = None
+    """The verdict of this loop's last report (None before the first)."""
 
     def interpolated(self) -> int:
         """Interpolated samples inside the window now (older gaps are forgotten)."""
@@ -82,6 +97,7 @@ class AgentCore:
         self.reports = 0
         self.gaps_filled = 0
         self.samples_filled = 0
+        self.readings_deferred = 0
         self.latencies: list[float] = []
         self.agents: tuple[str, ...] = (self.agent_id,)
         self._roles: dict[str, int] = {}  # loop -> its rank among live agents, cached per membership
@@ -138,7 +154,7 @@ class AgentCore:
             if batch.ts_s != w.ts_s:
                 self.reject("sample_time_changed", loop_id)
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
-                state.new_since_report = 0
+                state.new_since_report, state.reading = 0, None
             elif batch.seq < w.next_seq:
                 reason = "duplicate" if w.holds(batch.seq, batch.op, batch.pv) else "out_of_order"
                 return self.reject(reason, f"{loop_id} seq {batch.seq} < {w.next_seq}")
@@ -147,7 +163,7 @@ class AgentCore:
             elif batch.seq > w.next_seq:
                 self.reject("gap", f"{loop_id} seq {batch.seq} > {w.next_seq}: window restarted")
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
-                state.new_since_report, state.filled = 0, None
+                state.new_since_report, state.filled, state.reading = 0, None, None
         w.update(batch.seq, batch.t0_s, batch.op, batch.pv, batch.sp)
         state.process = batch.process
         state.new_since_report += len(batch.op)
@@ -185,9 +201,17 @@ class AgentCore:
     # reports ---------------------------------------------------------------------------------
     def due(self) -> list[tuple[Window, float]]:
         """Owned loops with enough samples (a new loop's first, partial window; then the full window)
-        and enough new samples since their last report: (window, arrival time of its last sample)."""
-        out = []
-        full = self.settings.window_samples
+        and enough new samples since their last report: (window, arrival time of its last sample).
+
+        Friction readings (the dear part of a report) are rationed: a loop still called sticky
+        carries its reading for ``estimate_every`` reports; of the due loops that want a fresh one
+        (sticky, or not reported yet), at most a 1/``estimate_every`` share (at least
+        ``min_readings``) get it in one pass, loops never read first, then the stalest.  The rest
+        carry their stale reading, or report their verdict with the reading deferred.  An agent
+        that keeps up sees a few due loops a pass and reads them all; one that falls behind (a cold
+        start of thousands of loops, a take-over) spreads the readings instead of falling further."""
+        out, wanting = [], []
+        full, every = self.settings.window_samples, self.settings.estimate_every
         for loop_id, state in self.loops.items():
             w = state.window
             if w.count < state.first_at or state.new_since_report < self.settings.report_every_samples:
@@ -195,21 +219,51 @@ class AgentCore:
             # the replica keeps the owner's schedule without reporting, so that after a take-over it
             # reports each interval once, on time, not at once with everything it has counted
             state.new_since_report = 0
-            if self.owns(loop_id):
-                op, pv = w.get()
-                window = Window(
-                    loop_id,
-                    op,
-                    pv,
-                    w.ts_s,
-                    w.t_end_s,
-                    state.process,
-                    sp=w.get_sp(),
-                    full_samples=full,
-                    interpolated=state.interpolated(),
-                )
-                out.append((window, state.arrived_at))
+            if not self.owns(loop_id):
+                continue
+            op, pv = w.get()
+            window = Window(
+                loop_id,
+                op,
+                pv,
+                w.ts_s,
+                w.t_end_s,
+                state.process,
+                sp=w.get_sp(),
+                full_samples=full,
+                interpolated=state.interpolated(),
+                carry=state.reading,
+            )
+            if state.reading is None and state.verdict not in (None, "stiction"):
+                window = dataclasses.replace(window, carry=None)  # read at once should it turn sticky
+            elif state.reading is None or state.reading_reports >= every:
+                wanting.append((math.inf if state.reading is None else state.reading_reports, len(out)))
+            out.append((window, state.arrived_at))
+        grant = max(self.settings.min_readings, -(-len(out) // every))
+        wanting.sort(key=lambda x: -x[0])  # never read first, then the stalest
+        for k, (_, i) in enumerate(wanting):
+            window, arrived = out[i]
+            if k < grant:
+                window = dataclasses.replace(window, carry=None)
+            else:
+                window = dataclasses.replace(window, defer_reading=True)
+                self.readings_deferred += 1
+            out[i] = (window, arrived)
         return out
+
+    def reported(self, loop_id: str, verdict: str, reading: Reading | None) -> None:
+        """A report went out: keep its fresh friction reading, count a carried one, or drop the
+        loop's reading once it is no longer called sticky."""
+        state = self.loops.get(loop_id)
+        if state is None:
+            return
+        state.verdict = verdict
+        if reading is not None:
+            state.reading, state.reading_reports = reading, 1
+        elif verdict == "stiction" and state.reading is not None:
+            state.reading_reports += 1
+        elif verdict != "stiction":
+            state.reading = None
 
     def completed(self, n_reports: int, arrivals: list[float], now_s: float) -> None:
         self.reports += n_reports

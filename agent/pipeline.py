@@ -17,6 +17,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -59,6 +60,13 @@ class Window:
     """The agent's full window; a shorter window is a new loop's partial first window."""
     interpolated: int = 0
     """Samples filled in across short gaps of the stream."""
+    carry: Reading | None = None
+    """A recent window's friction reading of this loop: where this window is still called sticky, its
+    report carries that reading instead of running the INLPCA and the models again (the agent's
+    cadence, ``--estimate-every``); where it is not, the reading is dropped."""
+    defer_reading: bool = False
+    """Without a carry: a window called sticky reports its verdict and no friction numbers this time
+    (the agent rations readings while it catches up); a warning says so."""
 
     def validate(self) -> None:
         op, pv = np.asarray(self.op), np.asarray(self.pv)
@@ -74,6 +82,30 @@ class Window:
             raise InputError(f"loop {self.loop_id}: sample time must be > 0 s, got {self.ts_s}")
         if self.process not in (None, "level"):
             raise InputError(f"loop {self.loop_id}: process {self.process!r} unknown, expected 'level' or none")
+
+
+@dataclass(frozen=True)
+class Reading:
+    """The friction half of a stiction report: its fields and the warnings that came with them,
+    read from the window that ended at ``t_end_s``."""
+
+    fields: dict
+    warnings: tuple[str, ...]
+    t_end_s: float | None
+
+
+class Result(NamedTuple):
+    report: StictionReport
+    details: Details | None
+    reading: Reading | None
+    """The friction reading made from this very window (None where the verdict is not stiction, or
+    where the window carried an earlier reading)."""
+
+
+READING_FIELDS = (
+    "fs_pct", "fd_pct", "s_pct", "j_pct", "s_se_pct", "j_se_pct", "fs_se_pct", "fd_se_pct", "denoised",
+    "method", "thesis", "physical", "learned", "ood_score", "explained", "estimate_t_end_s",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -128,18 +160,19 @@ class Quantifier:
         The INLPCA and the models run only where the report can use them: windows called sticky,
         and declared level loops (their slips may override the verdict); elsewhere every friction
         number is null anyway, and so are ``explained`` and ``ood_score``."""
-        return [r for r, _ in self._quantify(windows, denoise, details=False)]
+        return [r.report for r in self.results(windows, denoise=denoise)]
 
     def quantify_with_details(
         self, windows: Sequence[Window], denoise: bool | None = None
     ) -> list[tuple[StictionReport, Details]]:
         """As ``quantify``, with what the pipeline saw in each window (the INLPCA runs on every one)."""
-        return self._quantify(windows, denoise, details=True)
+        return [(r.report, r.details) for r in self.results(windows, denoise=denoise, details=True)]
 
-    def _quantify(self, windows, denoise, details: bool):
+    def results(self, windows: Sequence[Window], denoise: bool | None = None, details: bool = False) -> list[Result]:
+        """Report, details (None unless asked for) and the fresh friction reading of every window."""
         for w in windows:
             w.validate()
-        out: list[tuple[StictionReport, Details] | None] = [None] * len(windows)
+        out: list[Result | None] = [None] * len(windows)
         groups: dict[tuple[int, float], list[int]] = {}
         for i, w in enumerate(windows):
             groups.setdefault((len(w.op), float(w.ts_s)), []).append(i)
@@ -151,7 +184,7 @@ class Quantifier:
                 out[j] = result
         return out
 
-    def _batch(self, op, pv, ts_s, windows, denoise, details=True) -> list[tuple[StictionReport, Details | None]]:
+    def _batch(self, op, pv, ts_s, windows, denoise, details=True) -> list[Result]:
         n = op.shape[0]
         level = np.array([w.process == "level" for w in windows])
         problems_all = [data_checks(op[i], pv[i]) for i in range(n)]
@@ -163,10 +196,13 @@ class Quantifier:
             decide(self.detector, ev, [c.message for c in blocking(problems)])
             for ev, problems in zip(evs, problems_all, strict=True)
         ]
-        use = level | np.array([v.verdict == "stiction" for v in verdicts])
+        sticky = np.array([v.verdict == "stiction" for v in verdicts])
+        carried = sticky & np.array([w.carry is not None for w in windows])
+        deferred = sticky & ~carried & np.array([w.defer_reading for w in windows])
+        use = (level | sticky) & ~carried & ~deferred
         # the viewer's path fits every window for its curves; the report reads the fit only where
         # it can use it, so that a report is the same with and without a viewer
-        a = _analyse_where(op, pv, ts_s, denoise, use | details, level)
+        a = _analyse_where(op, pv, ts_s, denoise, use | details, level & (use | details))
         curves = None
         if details:
             angles = np.linspace(-np.pi, np.pi, 129)  # closed: the last point repeats the first
@@ -191,7 +227,7 @@ class Quantifier:
             & (phys.fd_se_pct <= np.where(phys.segmented, SEGMENTED_MAX_SE_PCT, PHYSICAL_MAX_SE_PCT))
             & (phys.slips <= slip_limit)
         )
-        reports = []
+        results: list[Result] = []
         for i, w in enumerate(windows):
             problems, ev, verdict = problems_all[i], evs[i], verdicts[i]
             if physical_ok[i] and verdict.verdict in ("other_cause", "no_oscillation"):
@@ -207,6 +243,15 @@ class Quantifier:
                 warnings.append(f"{w.interpolated} samples interpolated across gaps in the stream")
             if not level[i]:
                 warnings.append("process not declared: the physical reading of the slips (level loop) is not used")
+            if carried[i] or deferred[i]:
+                extra = list(w.carry.warnings) if carried[i] else [DEFERRED_WARNING]
+                report = self._report(w, i, a, use, "none", (np.nan,) * 4, _NOTHING_SHOWN, verdict, ev, problems,
+                                      warnings + extra, ood, level, ts_s)  # fmt: skip
+                if carried[i]:
+                    report = report.model_copy(update=w.carry.fields)
+                results.append(Result(report, None, None))
+                continue
+            fresh = len(warnings)
             if np.isfinite(ood[i]) and ood[i] > 1:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
             candidates = [
@@ -222,12 +267,15 @@ class Quantifier:
                 warnings.append("no estimate: the data cannot show a valve's friction (above)")
             elif method == "none":
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
-            reports.append(
-                self._report(w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
-            )
+            report = self._report(w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
+            reading = None
+            if verdict.verdict == "stiction":
+                fields = {k: getattr(report, k) for k in READING_FIELDS}
+                reading = Reading(fields, tuple(warnings[fresh:]), w.t_end_s)
+            results.append(Result(report, None, reading))
         if not details:
-            return [(r, None) for r in reports]
-        return list(zip(reports, [Details(curves[i], a.fit.denoised[i]) for i in range(n)], strict=True))
+            return results
+        return [r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)]
 
     def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s):
         """Assembly only: the numbers chosen above, as the report's fields."""
@@ -271,7 +319,15 @@ class Quantifier:
             n_samples=int(len(w.op)),
             partial=w.full_samples is not None and len(w.op) < w.full_samples,
             interpolated_samples=int(w.interpolated),
+            estimate_t_end_s=w.t_end_s if method != "none" else None,
         )
+
+
+_NOTHING_SHOWN = {"thesis": None, "physical": None, "learned": None}
+DEFERRED_WARNING = (
+    "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
+    "each pass; a coming report reads it"
+)
 
 
 def _analyse_where(op, pv, ts_s, denoise, need: np.ndarray, level: np.ndarray) -> WindowAnalysis:

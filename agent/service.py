@@ -47,6 +47,8 @@ class AgentSettings:
     """Loops held at most: a burst of unknown loops beyond it is refused, not stored."""
     first_report_samples: int = 200
     """A new loop's first (partial) report once it holds this many samples."""
+    estimate_every: int = 5
+    """Reports of a loop still called sticky between fresh friction readings (``CoreSettings``)."""
 
 
 class AgentService:
@@ -65,6 +67,7 @@ class AgentService:
                 report_every_samples=settings.report_every_samples,
                 max_loops=settings.max_loops,
                 first_report_samples=settings.first_report_samples,
+                estimate_every=settings.estimate_every,
             ),
         )
         self.latest: dict[str, bytes] = {}
@@ -166,9 +169,7 @@ class AgentService:
         return bool(n or due)
 
     def _quantify(self, windows):
-        if self.sink is None:
-            return [(r, None) for r in self.quantifier.quantify(windows)]
-        return self.quantifier.quantify_with_details(windows)
+        return self.quantifier.results(windows, details=self.sink is not None)
 
     def _report(self, due) -> None:
         windows = [w for w, _ in due]
@@ -181,15 +182,17 @@ class AgentService:
                     results.extend(self._quantify([w]))
                 except StictionError as e:
                     self.core.reject("window_refused", str(e))
-                    results.append((None, None))
+                    results.append(None)
         put_kw = {
             "encoding": self._zenoh.Encoding.APPLICATION_JSON,
             "congestion_control": self._zenoh.CongestionControl.BLOCK,
         }
         arrivals = []
-        for (w, arrived), (report, details) in zip(due, results, strict=True):
-            if report is None:
+        for (w, arrived), result in zip(due, results, strict=True):
+            if result is None:
                 continue
+            report, details = result.report, result.details
+            self.core.reported(w.loop_id, report.verdict, result.reading)
             report = report.model_copy(update={"agent_id": self.settings.agent_id})
             payload = report.model_dump_json().encode()
             self.latest[w.loop_id] = payload
@@ -229,6 +232,7 @@ class AgentService:
             reports_per_s=(self.core.reports - reports0) / span if span > 0 else None,
             gaps_filled=self.core.gaps_filled,
             samples_filled=self.core.samples_filled,
+            readings_deferred=self.core.readings_deferred,
         )
 
     def publish_health(self) -> AgentHealth:

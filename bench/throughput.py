@@ -97,6 +97,7 @@ def run_throughput(
     endpoint = zenoh_config.free_loopback_endpoint()
     received: list[tuple[str, float, float]] = []  # loop, t_end_s, arrival
     verdicts: dict[str, int] = {}
+    friction = {"sticky": 0, "with_numbers": 0, "read_here": 0}  # stiction reports; with S, J; read from their own window
     lock = threading.Lock()
 
     def on_report(sample):
@@ -104,6 +105,10 @@ def run_throughput(
         with lock:
             received.append((r["loop_id"], r["t_end_s"], time.monotonic()))
             verdicts[r["verdict"]] = verdicts.get(r["verdict"], 0) + 1
+            if r["verdict"] == "stiction":
+                friction["sticky"] += 1
+                friction["with_numbers"] += r["s_pct"] is not None
+                friction["read_here"] += r["s_pct"] is not None and r["estimate_t_end_s"] == r["t_end_s"]
 
     health: dict[str, dict] = {}
     procs = []
@@ -260,6 +265,9 @@ def run_throughput(
         **_exactly_once(rows, report_every * ts),
         "mix": mix,
         "verdicts": verdicts,
+        "stiction_reports_with_friction": friction["with_numbers"],
+        "stiction_reports_read_from_own_window": friction["read_here"],
+        "readings_deferred": sum(h.get("readings_deferred", 0) for h in health.values()),
         "rejected": rejected,
         "agent_cpu_share": [(s[0] - c) / wall for s, c in zip(stats, cpu0, strict=True)],
         "agent_peak_rss_mb": max(s[1] for s in stats),

@@ -78,6 +78,11 @@ class AgentHealth(BaseModel):
     reports_per_s: float | None = Field(None, description="reports published per second since the last health message")
     gaps_filled: int = Field(0, description="short gaps in loops' streams filled by interpolation")
     samples_filled: int = Field(0, description="samples interpolated across those gaps")
+    readings_deferred: int = Field(
+        0,
+        description="reports of sticky loops whose friction reading was put off to a coming report (the agent "
+        "rations readings while it catches up: a cold start of many loops, a take-over)",
+    )
 
 
 class BridgeHealth(BaseModel):

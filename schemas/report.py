@@ -108,3 +108,9 @@ class StictionReport(BaseModel):
     interpolated_samples: int = Field(
         0, description="samples of the window filled in by linear interpolation across short gaps in the stream"
     )
+    estimate_t_end_s: float | None = Field(
+        None,
+        description="end of the window the friction numbers were read from: t_end_s where they were read from "
+        "this window; earlier where the agent carried a recent reading of a loop still called sticky (it reads "
+        "afresh every --estimate-every reports); null without friction numbers or without window times",
+    )

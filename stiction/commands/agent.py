@@ -28,6 +28,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a new loop's first report once it holds this many samples, flagged partial (default 200)",
     )
     p.add_argument("--report-every", type=int, default=60, help="new samples between a loop's reports (default 60)")
+    p.add_argument(
+        "--estimate-every",
+        type=int,
+        default=5,
+        help="reports of a loop still called sticky between fresh friction readings; the reports between carry "
+        "the last one, with estimate_t_end_s (default 5; 1: every report). Verdicts are read from every window",
+    )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")
     zenoh_config.add_arguments(p)
@@ -53,8 +60,10 @@ def run(args: argparse.Namespace) -> int:
 
     from agent.service import AgentService, AgentSettings
 
-    if args.window < 100 or args.first_window < 100 or args.report_every < 1:
-        raise InputError("--window and --first-window must be at least 100 samples and --report-every at least 1")
+    if args.window < 100 or args.first_window < 100 or args.report_every < 1 or args.estimate_every < 1:
+        raise InputError(
+            "--window and --first-window must be at least 100 samples, --report-every and --estimate-every at least 1"
+        )
     if not args.listen and not args.connect and args.config is None:
         args.connect = [DEFAULT_ENDPOINT]
         args.listen = [zenoh_config.free_loopback_endpoint()]
@@ -65,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
         window_samples=args.window,
         report_every_samples=args.report_every,
         first_report_samples=args.first_window,
+        estimate_every=args.estimate_every,
         models_dir=args.models,
     )
     log.info("settings: %s", settings)
@@ -76,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
         service.on_health = lambda h: print(agent_line(h), flush=True) if every() else None
         print(
             f"agent {agent_id}: listening on {keys.all_samples(args.prefix)}; a new loop's first report after "
-            f"{args.first_window} samples (partial), then every {args.report_every} samples; "
+            f"{args.first_window} samples (partial), then every {args.report_every} samples (friction read afresh "
+            f"every {args.estimate_every} reports of a sticky loop); "
             f"a status line every {args.status_every:g} s",
             flush=True,
         )

@@ -301,6 +301,11 @@ def _throughput(args) -> None:
         f"  samples/s ingested {f['samples_per_s']:.0f}   reports/s {f['reports_per_s']:.1f} "
         f"({f['reports']} of {f['reports_expected']} expected)"
     )
+    print(
+        f"  stiction reports with S and J {f['stiction_reports_with_friction']} of {f['verdicts'].get('stiction', 0)} "
+        f"({f['stiction_reports_read_from_own_window']} read from their own window, the others carried a recent "
+        f"reading); readings put off {f['readings_deferred']}"
+    )
     print(f"  latency last sample -> report: {lat}")
     print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
     killed = f" (agent 0 SIGKILLed at {f['killed_agent_at_s']:.0f} s)" if f["killed_agent_at_s"] is not None else ""

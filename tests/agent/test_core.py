@@ -183,3 +183,70 @@ def test_the_due_window_carries_the_streamed_setpoint():
     for seq in range(0, 100, 10):
         plain.ingest(KEY, _payload(seq), JSON, 0.0)
     assert plain.due()[0][0].sp is None
+
+
+def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports():
+    from agent.pipeline import Reading
+
+    core = _core(estimate_every=3)
+    seq = 0
+
+    def next_due():
+        nonlocal seq
+        while True:
+            core.ingest(KEY, _payload(seq), JSON, float(seq))
+            seq += 10
+            due = core.due()
+            if due:
+                return due[0][0]
+
+    first = next_due()
+    assert first.carry is None
+    reading = Reading({"fs_pct": 12.0}, (), first.t_end_s)
+    core.reported("L1", "stiction", reading)
+    carries = []
+    for _ in range(4):
+        w = next_due()
+        carries.append(w.carry)
+        core.reported("L1", "stiction", None if w.carry is not None else Reading({"fs_pct": 13.0}, (), w.t_end_s))
+    # read at the first report, carried by the next two (three reports in all), read afresh at the fourth
+    assert carries[0] is reading and carries[1] is reading and carries[2] is None
+    assert carries[3].fields == {"fs_pct": 13.0}
+    core.reported("L1", "other_cause", None)  # no longer sticky: the reading is dropped
+    assert next_due().carry is None
+    core.reported("L1", "stiction", reading)
+    core.ingest(KEY, _payload(seq + 50), JSON, float(seq + 50))  # a gap too long to fill: the window restarts
+    seq += 60
+    assert next_due().carry is None
+
+
+def test_fresh_readings_are_rationed_when_many_loops_fall_due_together_never_read_ones_first():
+    from agent.pipeline import Reading
+
+    core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=100, stagger=False,
+                                        estimate_every=4, min_readings=5))  # fmt: skip
+    loops = [f"L{i:03d}" for i in range(100)]
+
+    def pass_(start):
+        for lid in loops:
+            core.ingest(f"stiction/demo/loop/{lid}/samples", _payload(start, n=100, loop_id=lid), JSON, 0.0)
+        return {w.loop_id: w for w, _ in core.due()}
+
+    due = pass_(0)  # a cold start: every loop due at once, none read yet
+    granted = {lid for lid, w in due.items() if not w.defer_reading}
+    assert len(due) == 100 and len(granted) == 25 and core.readings_deferred == 75
+    for lid, w in due.items():
+        core.reported(lid, "stiction", Reading({}, (), w.t_end_s) if lid in granted else None)
+    due = pass_(100)
+    now = {lid for lid, w in due.items() if not w.defer_reading and w.carry is None}
+    assert len(now) == 25 and not now & granted  # the never-read loops go first
+    assert all(due[lid].carry is not None for lid in granted)
+    quiet = loops[:10]
+    for lid, w in due.items():
+        verdict = "no_oscillation" if lid in quiet else "stiction"
+        core.reported(lid, verdict, Reading({}, (), w.t_end_s) if lid in now and lid not in quiet else None)
+    due = pass_(200)
+    # loops last called not sticky are read at once should they turn sticky: outside the ration
+    assert all(not due[lid].defer_reading and due[lid].carry is None for lid in quiet)
+    wanting = [lid for lid, w in due.items() if lid not in quiet and (w.defer_reading or w.carry is None)]
+    assert sum(not due[lid].defer_reading for lid in wanting) == 25

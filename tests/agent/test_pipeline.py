@@ -158,3 +158,41 @@ def test_a_report_is_the_same_with_and_without_the_viewers_details(quantifier, c
                 assert da[k] == pytest.approx(db[k], rel=1e-6, abs=1e-4), (a.loop_id, k)
             elif k not in ("thesis", "learned", "physical"):
                 assert da[k] == db[k], (a.loop_id, k)
+
+
+def test_a_window_still_called_sticky_carries_the_reading_it_is_given_and_only_then(quantifier, cases):
+    specs, r = cases
+    rng = np.random.default_rng(5)
+    old = [Window(f"C{i + 1}", r.op[i], r.pv[i], t_end_s=1000.0) for i in range(2)]
+    first = quantifier.results(old)
+    assert [x.report.verdict for x in first] == ["stiction", "stiction"]
+    reading = first[0].reading
+    assert reading is not None and reading.t_end_s == 1000.0 and first[0].report.estimate_t_end_s == 1000.0
+    # the next windows: C1 is still sticky (same loop, later), the other loop has gone quiet
+    later = Window("C1", r.op[0], r.pv[0], t_end_s=1060.0, carry=reading)
+    quiet = Window("C2", rng.normal(50, 0.3, 1000), rng.normal(50, 0.3, 1000), t_end_s=1060.0, carry=first[1].reading)
+    fresh = Window("C1", r.op[0], r.pv[0], t_end_s=1060.0)
+    carried, dropped, reread = quantifier.results([later, quiet, fresh])
+    assert carried.reading is None and carried.report.verdict == "stiction"
+    assert carried.report.t_end_s == 1060.0 and carried.report.estimate_t_end_s == 1000.0
+    for k, v in reading.fields.items():
+        assert getattr(carried.report, k) == v, k
+    assert all(w in carried.report.warnings for w in reading.warnings)
+    assert dropped.report.verdict == "no_oscillation" and dropped.report.fs_pct is None
+    assert dropped.report.estimate_t_end_s is None and dropped.reading is None
+    assert reread.reading is not None and reread.report.estimate_t_end_s == 1060.0
+    assert reread.report.fs_pct == pytest.approx(carried.report.fs_pct)  # same samples: same numbers
+
+
+def test_a_deferred_reading_reports_the_verdict_and_says_the_numbers_come_later(quantifier, cases):
+    from agent.pipeline import DEFERRED_WARNING
+
+    specs, r = cases
+    rng = np.random.default_rng(6)
+    sticky = Window("C1", r.op[0], r.pv[0], defer_reading=True)
+    quiet = Window("quiet", rng.normal(50, 0.3, 1000), rng.normal(50, 0.3, 1000), defer_reading=True)
+    a, b = quantifier.results([sticky, quiet])
+    assert a.report.verdict == "stiction" and a.reading is None
+    assert a.report.fs_pct is None and a.report.s_pct is None and a.report.estimate_t_end_s is None
+    assert DEFERRED_WARNING in a.report.warnings
+    assert b.report.verdict == "no_oscillation" and DEFERRED_WARNING not in b.report.warnings
