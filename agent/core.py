@@ -76,6 +76,8 @@ class _Loop:
     reading_reports: int = 0
     verdict: str | None = None
     """The verdict of this loop's last report (None before the first)."""
+    queued: bool = False
+    """In the core's queue of due loops: ``due`` looks at these only, not at every loop held."""
 
     def interpolated(self) -> int:
         """Interpolated samples inside the window now (older gaps are forgotten)."""
@@ -98,6 +100,7 @@ class AgentCore:
         self.gaps_filled = 0
         self.samples_filled = 0
         self.readings_deferred = 0
+        self._queue: list[str] = []  # loops due for a report (owned or not), oldest first
         self.latencies: list[float] = []
         self.agents: tuple[str, ...] = (self.agent_id,)
         self._roles: dict[str, int] = {}  # loop -> its rank among live agents, cached per membership
@@ -169,7 +172,13 @@ class AgentCore:
         state.new_since_report += len(batch.op)
         state.arrived_at = now_s
         self.samples += len(batch.op)
+        if not state.queued and self._is_due(state):
+            state.queued = True
+            self._queue.append(loop_id)
         return None
+
+    def _is_due(self, state: _Loop) -> bool:
+        return state.window.count >= state.first_at and state.new_since_report >= self.settings.report_every_samples
 
     def _fill(self, state: _Loop, batch: SampleBatch) -> None:
         """A short gap: the missing samples drawn on the straight line from the last held sample to
@@ -212,9 +221,12 @@ class AgentCore:
         start of thousands of loops, a take-over) spreads the readings instead of falling further."""
         out, wanting = [], []
         full, every = self.settings.window_samples, self.settings.estimate_every
-        for loop_id, state in self.loops.items():
+        queue, self._queue = self._queue, []  # loops that became due as they were ingested, in that order
+        for loop_id in queue:
+            state = self.loops[loop_id]
+            state.queued = False
             w = state.window
-            if w.count < state.first_at or state.new_since_report < self.settings.report_every_samples:
+            if not self._is_due(state):  # its window restarted since
                 continue
             # the replica keeps the owner's schedule without reporting, so that after a take-over it
             # reports each interval once, on time, not at once with everything it has counted

@@ -250,3 +250,27 @@ def test_fresh_readings_are_rationed_when_many_loops_fall_due_together_never_rea
     assert all(not due[lid].defer_reading and due[lid].carry is None for lid in quiet)
     wanting = [lid for lid, w in due.items() if lid not in quiet and (w.defer_reading or w.carry is None)]
     assert sum(not due[lid].defer_reading for lid in wanting) == 25
+
+
+def test_due_from_the_queue_equals_a_scan_of_every_loop():
+    """``due`` looks only at loops queued as they were ingested; a brute-force scan of every loop
+    held (the rule itself) must name the same loops, through gaps, restarts and partial first windows."""
+    rng = np.random.default_rng(11)
+    core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=20, first_report_samples=100))
+    next_seq = dict.fromkeys(range(30), 0)
+    reported = 0
+    for _ in range(1500):
+        i = int(rng.integers(30))
+        seq = next_seq[i] + (int(rng.integers(1, 40)) if rng.random() < 0.05 else 0)  # now and then a gap
+        n = int(rng.integers(1, 15))
+        core.ingest(f"stiction/demo/loop/L{i}/samples", _payload(seq, n=n, loop_id=f"L{i}"), JSON, 0.0)
+        next_seq[i] = seq + n
+        if rng.random() < 0.2:
+            scan = {
+                lid
+                for lid, st in core.loops.items()
+                if st.window.count >= st.first_at and st.new_since_report >= core.settings.report_every_samples
+            }
+            assert {w.loop_id for w, _ in core.due()} == scan
+            reported += len(scan)
+    assert reported > 50
