@@ -124,6 +124,21 @@ def fit(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = DEFAULT_SETTI
     )
 
 
+PROJECT_WINDOWS = 10
+"""Windows projected together: the distances are [windows, samples, curve points], 10 MB for ten
+1000-sample windows (50 at once held 150 MB of temporaries at the agent's peak)."""
+
+
+def _nearest(x: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """Index of the curve point nearest to each sample: x [W, N, 2], curve [W, M, 2] -> [W, N]."""
+    out = np.empty(x.shape[:2], dtype=np.intp)
+    for i in range(0, x.shape[0], PROJECT_WINDOWS):
+        xs, cs = x[i : i + PROJECT_WINDOWS], curve[i : i + PROJECT_WINDOWS]
+        dist = np.sum(cs**2, axis=2)[:, None, :] - 2 * (xs @ cs.transpose(0, 2, 1))  # |x|^2 is the same for every point
+        out[i : i + PROJECT_WINDOWS] = np.argmin(dist, axis=2)
+    return out
+
+
 def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings) -> InlpcaFit:
     data = np.stack([np.atleast_2d(op), np.atleast_2d(pv)], axis=-1).astype(float)  # [W, N, 2]
     n_win, n_all = data.shape[:2]
@@ -156,12 +171,7 @@ def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings) -> Inlp
     # every sample: nearest point of the densely sampled curve (standardised units)
     grid = np.linspace(-np.pi, np.pi, settings.curve_points, endpoint=False)
     curve = _forward(np.broadcast_to(grid, (n_win, grid.size)), w1, b1, w2, b2)[0]  # [W, M, 2]
-    dist = (
-        np.sum(x_all**2, axis=2)[:, :, None]
-        - 2 * (x_all @ curve.transpose(0, 2, 1))
-        + np.sum(curve**2, axis=2)[:, None, :]
-    )
-    nearest = np.argmin(dist, axis=2)  # [W, N]
+    nearest = _nearest(x_all, curve)  # [W, N]
     theta_all = grid[nearest]
     out = np.take_along_axis(curve, nearest[..., None], axis=1)
     resid = x_all - out

@@ -306,7 +306,9 @@ def _throughput(args) -> None:
         f"({f['stiction_reports_read_from_own_window']} read from their own window, the others carried a recent "
         f"reading); readings put off {f['readings_deferred']}"
     )
-    print(f"  latency last sample -> report: {lat}")
+    settled = f["latency_p99_after_first_interval_s"]
+    settled = f"; p99 {settled * 1e3:.0f} ms once every loop has reported" if settled is not None else ""
+    print(f"  latency last sample -> report: {lat}{settled}")
     print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
     killed = f" (agent 0 SIGKILLed at {f['killed_agent_at_s']:.0f} s)" if f["killed_agent_at_s"] is not None else ""
     print(

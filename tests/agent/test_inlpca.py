@@ -60,3 +60,12 @@ def test_angles_advance_with_time_in_one_direction():
     assert turns == pytest.approx(600 / period, abs=1.0)
     steps = np.diff(fit.angles[0]) * fit.travel[0]
     assert np.mean(steps > 0) > 0.95
+
+
+def test_blocked_projection_finds_the_nearest_curve_point_as_a_brute_force_search_does():
+    from agent.inlpca import _nearest
+
+    rng = np.random.default_rng(2)
+    x, curve = rng.normal(size=(23, 300, 2)), rng.normal(size=(23, 64, 2))  # not a multiple of the block
+    brute = np.array([[np.argmin(np.hypot(*(c - p).T)) for p in xs] for xs, c in zip(x, curve, strict=True)])
+    assert np.array_equal(_nearest(x, curve), brute)
