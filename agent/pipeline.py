@@ -26,7 +26,7 @@ from agent.acf import acf_period
 from agent.analysis import WindowAnalysis, analyse
 from agent.features import CYCLE_FEATURES, THESIS_WINDOW
 from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
-from detect.features import evidence
+from detect.features import evidence_rows
 from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
 from ident.checks import blocking, data_checks, impossible_friction
@@ -188,10 +188,7 @@ class Quantifier:
         n = op.shape[0]
         level = np.array([w.process == "level" for w in windows])
         problems_all = [data_checks(op[i], pv[i]) for i in range(n)]
-        evs = [
-            evidence(op[i], pv[i], ts_s, None if w.sp is None else np.asarray(w.sp, float))
-            for i, w in enumerate(windows)
-        ]
+        evs = evidence_rows(op, pv, ts_s, [None if w.sp is None else np.asarray(w.sp, float) for w in windows])
         verdicts = [
             decide(self.detector, ev, [c.message for c in blocking(problems)])
             for ev, problems in zip(evs, problems_all, strict=True)
