@@ -48,8 +48,9 @@ class CoreSettings:
     at 1 Hz); the reports between carry the last reading, with the end of the window it came from
     (``estimate_t_end_s``).  Its verdict and data checks are read from every window.  1: every report."""
 
-    min_readings: int = 10
-    """Fresh friction readings granted in one pass whatever the share (a small plant never waits)."""
+    reading_lag_s: float = 0.3
+    """While the oldest due window has waited longer than this for its report, the agent is behind:
+    fresh friction readings are rationed (``due``).  An agent that keeps up reads every one."""
 
     @property
     def fill_limit(self) -> int:
@@ -208,17 +209,17 @@ class AgentCore:
         return min(first, self.settings.window_samples)
 
     # reports ---------------------------------------------------------------------------------
-    def due(self) -> list[tuple[Window, float]]:
+    def due(self, now_s: float | None = None) -> list[tuple[Window, float]]:
         """Owned loops with enough samples (a new loop's first, partial window; then the full window)
         and enough new samples since their last report: (window, arrival time of its last sample).
 
         Friction readings (the dear part of a report) are rationed: a loop still called sticky
-        carries its reading for ``estimate_every`` reports; of the due loops that want a fresh one
-        (sticky, or not reported yet), at most a 1/``estimate_every`` share (at least
-        ``min_readings``) get it in one pass, loops never read first, then the stalest.  The rest
-        carry their stale reading, or report their verdict with the reading deferred.  An agent
-        that keeps up sees a few due loops a pass and reads them all; one that falls behind (a cold
-        start of thousands of loops, a take-over) spreads the readings instead of falling further."""
+        carries its reading for ``estimate_every`` reports.  Due loops that want a fresh one (sticky,
+        or not reported yet) all get it while the agent keeps up; once the oldest due window has
+        waited more than ``reading_lag_s`` at ``now_s``, only a 1/``estimate_every`` share does,
+        loops never read first, then the stalest, and the rest carry their stale reading or report
+        their verdict with the reading put off.  So a cold start of thousands of sticky loops, or a
+        take-over, spreads its readings over the next reports instead of making every report late."""
         out, wanting = [], []
         full, every = self.settings.window_samples, self.settings.estimate_every
         queue, self._queue = self._queue, []  # loops that became due as they were ingested, in that order
@@ -251,7 +252,8 @@ class AgentCore:
             elif state.reading is None or state.reading_reports >= every:
                 wanting.append((math.inf if state.reading is None else state.reading_reports, len(out)))
             out.append((window, state.arrived_at))
-        grant = max(self.settings.min_readings, -(-len(out) // every))
+        behind = now_s is not None and bool(out) and now_s - min(a for _, a in out) > self.settings.reading_lag_s
+        grant = -(-len(out) // every) if behind else len(wanting)
         wanting.sort(key=lambda x: -x[0])  # never read first, then the stalest
         for k, (_, i) in enumerate(wanting):
             window, arrived = out[i]

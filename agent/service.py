@@ -159,7 +159,7 @@ class AgentService:
             key, payload, encoding, arrived = self._inbox.popleft()
             self.core.ingest(key, payload, encoding, arrived)
             n += 1
-        due = self.core.due()
+        due = self.core.due(time.monotonic())
         for i in range(0, len(due), self.settings.max_batch):
             if stop is not None and stop.is_set():
                 return False

@@ -220,36 +220,33 @@ def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports()
     assert next_due().carry is None
 
 
-def test_fresh_readings_are_rationed_when_many_loops_fall_due_together_never_read_ones_first():
+def test_fresh_readings_are_rationed_while_the_agent_is_behind_never_read_ones_first():
     from agent.pipeline import Reading
 
     core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=100, stagger=False,
-                                        estimate_every=4, min_readings=5))  # fmt: skip
+                                        estimate_every=4, reading_lag_s=0.5))  # fmt: skip
     loops = [f"L{i:03d}" for i in range(100)]
 
-    def pass_(start):
+    def pass_(start, now_s):
         for lid in loops:
-            core.ingest(f"stiction/demo/loop/{lid}/samples", _payload(start, n=100, loop_id=lid), JSON, 0.0)
-        return {w.loop_id: w for w, _ in core.due()}
+            core.ingest(f"stiction/demo/loop/{lid}/samples", _payload(start, n=100, loop_id=lid), JSON, 10.0 * start)
+        return {w.loop_id: w for w, _ in core.due(now_s)}
 
-    due = pass_(0)  # a cold start: every loop due at once, none read yet
+    due = pass_(0, now_s=0.2)  # every loop due at once, but the agent keeps up: every reading made
+    assert len(due) == 100 and not any(w.defer_reading or w.carry for w in due.values())
+    for lid, w in due.items():
+        core.reported(lid, "stiction" if lid != "L000" else "other_cause", None)  # as if their readings failed
+    due = pass_(100, now_s=1000.0 + 2.0)  # 2 s behind: a quarter of the due loops are read
     granted = {lid for lid, w in due.items() if not w.defer_reading}
-    assert len(due) == 100 and len(granted) == 25 and core.readings_deferred == 75
+    # L000 was last called not sticky: read at once should it turn sticky, outside the ration of 25
+    assert "L000" in granted and len(granted) == 26 and core.readings_deferred == 74
+    granted.discard("L000")
     for lid, w in due.items():
         core.reported(lid, "stiction", Reading({}, (), w.t_end_s) if lid in granted else None)
-    due = pass_(100)
+    due = pass_(200, now_s=2000.0 + 2.0)
     now = {lid for lid, w in due.items() if not w.defer_reading and w.carry is None}
-    assert len(now) == 25 and not now & granted  # the never-read loops go first
-    assert all(due[lid].carry is not None for lid in granted)
-    quiet = loops[:10]
-    for lid, w in due.items():
-        verdict = "no_oscillation" if lid in quiet else "stiction"
-        core.reported(lid, verdict, Reading({}, (), w.t_end_s) if lid in now and lid not in quiet else None)
-    due = pass_(200)
-    # loops last called not sticky are read at once should they turn sticky: outside the ration
-    assert all(not due[lid].defer_reading and due[lid].carry is None for lid in quiet)
-    wanting = [lid for lid, w in due.items() if lid not in quiet and (w.defer_reading or w.carry is None)]
-    assert sum(not due[lid].defer_reading for lid in wanting) == 25
+    assert len(now) == 25 and not now & granted  # the loops never read go first
+    assert all(due[lid].carry is not None and not due[lid].defer_reading for lid in granted)
 
 
 def test_due_from_the_queue_equals_a_scan_of_every_loop():
