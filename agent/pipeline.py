@@ -264,7 +264,9 @@ class Quantifier:
                 warnings.append("no estimate: the data cannot show a valve's friction (above)")
             elif method == "none":
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
-            report = self._report(w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s)
+            report = self._report(
+                w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s
+            )
             reading = None
             if verdict.verdict == "stiction":
                 fields = {k: getattr(report, k) for k in READING_FIELDS}

@@ -97,7 +97,8 @@ def run_throughput(
     endpoint = zenoh_config.free_loopback_endpoint()
     received: list[tuple[str, float, float]] = []  # loop, t_end_s, arrival
     verdicts: dict[str, int] = {}
-    friction = {"sticky": 0, "with_numbers": 0, "read_here": 0}  # stiction reports; with S, J; read from their own window
+    # stiction reports; those with S and J; those read from their own window
+    friction = {"sticky": 0, "with_numbers": 0, "read_here": 0}
     lock = threading.Lock()
 
     def on_report(sample):

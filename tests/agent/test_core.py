@@ -234,7 +234,7 @@ def test_fresh_readings_are_rationed_while_the_agent_is_behind_never_read_ones_f
 
     due = pass_(0, now_s=0.2)  # every loop due at once, but the agent keeps up: every reading made
     assert len(due) == 100 and not any(w.defer_reading or w.carry for w in due.values())
-    for lid, w in due.items():
+    for lid in due:
         core.reported(lid, "stiction" if lid != "L000" else "other_cause", None)  # as if their readings failed
     due = pass_(100, now_s=1000.0 + 2.0)  # 2 s behind: a quarter of the due loops are read
     granted = {lid for lid, w in due.items() if not w.defer_reading}

@@ -144,7 +144,11 @@ def test_a_report_is_the_same_with_and_without_the_viewers_details(quantifier, c
     t = np.arange(1000)
     windows = [
         Window("quiet", rng.normal(50, 0.3, 1000), rng.normal(50, 0.3, 1000)),
-        Window("sine", 50 + 5 * np.sin(2 * np.pi * t / 80) + rng.normal(0, 0.2, 1000), 50 + 3 * np.sin(2 * np.pi * (t - 10) / 80)),
+        Window(
+            "sine",
+            50 + 5 * np.sin(2 * np.pi * t / 80) + rng.normal(0, 0.2, 1000),
+            50 + 3 * np.sin(2 * np.pi * (t - 10) / 80),
+        ),
         Window("C1", r.op[0], r.pv[0]),
         Window("C2-level", r.op[1], r.pv[1], process="level"),
     ]
