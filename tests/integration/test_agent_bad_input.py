@@ -124,8 +124,13 @@ def test_bad_messages_are_counted_and_good_loops_unaffected(stack, quantifier):
     for j, g in enumerate(GOOD):
         op, pv = np.concatenate(sent_op[j]), np.concatenate(sent_pv[j])
         last = reports[g][-1]
+        # the friction may come from an earlier window of the loop (the agent reads it afresh every
+        # --estimate-every reports): the window it names
+        end = op.size - int(round(last.t_end_s - last.estimate_t_end_s))
         held = np.float32  # the agent holds samples as float32
-        window = Window(g, op[-WINDOW:].astype(held), pv[-WINDOW:].astype(held), 1.0, last.t_end_s, "level")
+        window = Window(
+            g, op[end - WINDOW : end].astype(held), pv[end - WINDOW : end].astype(held), 1.0, last.t_end_s, "level"
+        )
         offline = quantifier.quantify([window])[0]
         assert last.fs_pct == offline.fs_pct and last.fd_pct == offline.fd_pct and last.agent_id == "t1"
     assert "junk" not in reports and not any(k.startswith("burst") for k in reports)
