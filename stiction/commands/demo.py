@@ -45,6 +45,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     zenoh_config.add_arguments(p)
 
 
+def _no_numbers(r) -> str:
+    """Why a report has no friction numbers, in a few words: its verdict, or the warning that says."""
+    if r.verdict != "stiction":
+        return f"verdict {r.verdict.replace('_', ' ')}"
+    said = [w for w in r.warnings if w.startswith(("no estimate", "friction not read"))]
+    return said[0].split(":")[0] if said else "no estimate"
+
+
 def _table(reports, truths, rows: int, elapsed: float, published: int, loops: int) -> str:
     lines = [
         f"stiction demo  {elapsed:5.0f} s   {loops} loops   {published} s simulated per loop   "
@@ -57,7 +65,8 @@ def _table(reports, truths, rows: int, elapsed: float, published: int, loops: in
         r = reports.get(loop_id)
         true = f"{t.fs_pct:5.1f}/{t.fd_pct:5.1f}"
         if r is None or r.fs_pct is None:
-            lines.append(f"{loop_id:10s} {true:>14s} {'-':>14s} {'':>7s} {'':>9s} {'':>8s}  waiting for a full window")
+            why = "waiting for its first report" if r is None else _no_numbers(r)
+            lines.append(f"{loop_id:10s} {true:>14s} {'-':>14s} {'':>7s} {'':>9s} {'':>8s}  {why}")
             continue
         err = (abs(r.fs_pct - t.fs_pct) + abs(r.fd_pct - t.fd_pct)) / 2
         status = "; ".join(w.split(":")[0] for w in r.warnings if "process not declared" not in w) or "ok"
