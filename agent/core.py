@@ -17,8 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import ValidationError
 
-from agent.pipeline import Reading, Window
-from agent.window import RollingWindow
+from agent.window import Reading, RollingWindow, Window
 from schemas import keys
 from schemas.messages import SampleBatch
 

@@ -57,7 +57,8 @@ def _plot(png: Path, window, report, details) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agent.pipeline import MIN_SAMPLES, Quantifier, Window
+    from agent.pipeline import Quantifier, Window
+    from agent.window import MIN_SAMPLES
 
     if args.csv and not args.rank:
         raise StictionError("--csv FILE goes with --rank")

@@ -36,7 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
     """One track per readable export; each unreadable one named on one line (and returned)."""
     from agent.historian import expand_paths, read_export
-    from agent.pipeline import MIN_SAMPLES
+    from agent.window import MIN_SAMPLES
     from bridge.replay import loop_ids, track
 
     files = expand_paths(paths)

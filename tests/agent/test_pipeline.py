@@ -108,6 +108,15 @@ def test_agent_core_imports_no_torch_zenoh_or_rerun():
     assert out.strip() == "[]"
 
 
+def test_the_agents_core_names_its_types_without_importing_the_models_or_the_simulator():
+    code = (
+        "import sys, agent.core; "
+        "print(sorted(m for m in ('onnxruntime', 'sim', 'stiction', 'scipy', 'zenoh', 'torch') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
 def test_partial_and_interpolated_windows_are_flagged_and_otherwise_the_same_report(quantifier, cases):
     specs, r = cases
     name = next(iter(specs))
