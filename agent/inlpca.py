@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agent import inlpca_kernel
+
 
 @dataclass(frozen=True)
 class InlpcaSettings:
@@ -92,6 +94,20 @@ class _Adam:
         return out
 
 
+def _train_numpy(theta, w1, b1, w2, b2, x, iterations, lr, angle_lr, weight_decay) -> None:
+    """The training loop in numpy, all windows at once, in place: the reference the compiled one
+    (``agent.inlpca_kernel.train``) is tested against."""
+    n = x.shape[1]
+    adam = _Adam([theta.shape, w1.shape, b1.shape, w2.shape, b2.shape], [angle_lr, lr, lr, lr, lr])
+    params = [theta, w1, b1, w2, b2]
+    for _ in range(iterations):
+        _, (g_theta, g_w1, g_b1, g_w2, g_b2) = loss_and_grads(*params, x, weight_decay)
+        # each angle moves only its own sample: scale its gradient back up to that sample's own loss
+        params = adam.step(params, [g_theta * n, g_w1, g_b1, g_w2, g_b2])
+    for target, value in zip((theta, w1, b1, w2, b2), params, strict=True):
+        target[...] = value
+
+
 def _initial_angles(x: np.ndarray) -> np.ndarray:
     """Angle of each standardised sample in its window's whitened principal plane."""
     cov = (x.transpose(0, 2, 1) @ x) / x.shape[1]
@@ -105,13 +121,16 @@ CHUNK_WINDOWS = 50
 einsum: for these small inner dimensions einsum was 10-20x slower."""
 
 
-def fit(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = DEFAULT_SETTINGS) -> InlpcaFit:
-    """Fit one curve per row of ``op``, ``pv`` [W, N]; every sample is projected onto its curve."""
+def fit(
+    op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = DEFAULT_SETTINGS, reference: bool = False
+) -> InlpcaFit:
+    """Fit one curve per row of ``op``, ``pv`` [W, N]; every sample is projected onto its curve.
+    ``reference``: train with the numpy loop instead of the compiled one (the tests' reference)."""
     op, pv = np.atleast_2d(op), np.atleast_2d(pv)
     if op.shape[0] <= CHUNK_WINDOWS:
-        return _fit_chunk(op, pv, settings)
+        return _fit_chunk(op, pv, settings, reference)
     parts = [
-        _fit_chunk(op[i : i + CHUNK_WINDOWS], pv[i : i + CHUNK_WINDOWS], settings)
+        _fit_chunk(op[i : i + CHUNK_WINDOWS], pv[i : i + CHUNK_WINDOWS], settings, reference)
         for i in range(0, op.shape[0], CHUNK_WINDOWS)
     ]
     return InlpcaFit(
@@ -139,7 +158,7 @@ def _nearest(x: np.ndarray, curve: np.ndarray) -> np.ndarray:
     return out
 
 
-def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings) -> InlpcaFit:
+def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings, reference: bool = False) -> InlpcaFit:
     data = np.stack([np.atleast_2d(op), np.atleast_2d(pv)], axis=-1).astype(float)  # [W, N, 2]
     n_win, n_all = data.shape[:2]
     mean = data.mean(axis=1)
@@ -161,12 +180,10 @@ def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings) -> Inlp
     sol = np.linalg.solve(gram, h1.transpose(0, 2, 1) @ x)  # [W, H+1, 2]
     w2, b2 = np.transpose(sol[:, :hidden, :], (0, 2, 1)).copy(), sol[:, hidden, :].copy()
 
-    lr = settings.learning_rate
-    adam = _Adam([theta.shape, w1.shape, b1.shape, w2.shape, b2.shape], [settings.angle_learning_rate, lr, lr, lr, lr])
-    for _ in range(settings.iterations):
-        _, (g_theta, g_w1, g_b1, g_w2, g_b2) = loss_and_grads(theta, w1, b1, w2, b2, x, settings.weight_decay)
-        # each angle moves only its own sample: scale its gradient back up to that sample's own loss
-        theta, w1, b1, w2, b2 = adam.step([theta, w1, b1, w2, b2], [g_theta * n, g_w1, g_b1, g_w2, g_b2])
+    theta, w1, b1, w2, b2 = (np.ascontiguousarray(a, dtype=float) for a in (theta, w1, b1, w2, b2))
+    train = _train_numpy if reference else inlpca_kernel.train
+    train(theta, w1, b1, w2, b2, np.ascontiguousarray(x), settings.iterations, settings.learning_rate,
+          settings.angle_learning_rate, settings.weight_decay)  # fmt: skip
 
     # every sample: nearest point of the densely sampled curve (standardised units)
     grid = np.linspace(-np.pi, np.pi, settings.curve_points, endpoint=False)

@@ -69,3 +69,17 @@ def test_blocked_projection_finds_the_nearest_curve_point_as_a_brute_force_searc
     x, curve = rng.normal(size=(23, 300, 2)), rng.normal(size=(23, 64, 2))  # not a multiple of the block
     brute = np.array([[np.argmin(np.hypot(*(c - p).T)) for p in xs] for xs, c in zip(x, curve, strict=True)])
     assert np.array_equal(_nearest(x, curve), brute)
+
+
+def test_the_compiled_training_loop_follows_the_numpy_reference():
+    rng = np.random.default_rng(3)
+    t = np.arange(600)
+    op = 50 + 10 * np.sign(np.sin(2 * np.pi * t / 90))[None] + rng.normal(0, 0.5, (5, 600))
+    pv = 50 + 5 * np.sin(2 * np.pi * (t - 20) / 90)[None] + rng.normal(0, 0.5, (5, 600))
+    fast = inlpca.fit(op, pv)
+    slow = inlpca.fit(op, pv, reference=True)
+    for a, b in zip(fast._params, slow._params, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-7)
+    np.testing.assert_allclose(fast.denoised, slow.denoised, atol=1e-6)
+    one = inlpca.fit(op[2:3], pv[2:3])  # window by window: a window's fit does not depend on its batch
+    np.testing.assert_array_equal(one._params[0][0], fast._params[0][2])
