@@ -47,7 +47,7 @@ class CoreSettings:
     at 1 Hz); the reports between carry the last reading, with the end of the window it came from
     (``estimate_t_end_s``).  Its verdict and data checks are read from every window.  1: every report."""
 
-    reading_lag_s: float = 0.3
+    reading_lag_s: float = 0.15
     """While the oldest due window has waited longer than this for its report, the agent is behind:
     fresh friction readings are rationed (``due``).  An agent that keeps up reads every one."""
 
