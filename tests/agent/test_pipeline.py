@@ -99,20 +99,17 @@ def test_bad_windows_are_refused_with_the_reason(quantifier, window, message):
         quantifier.quantify([window])
 
 
-def test_agent_core_imports_no_torch_zenoh_or_rerun():
-    code = (
-        "import sys, agent.pipeline, agent.analysis, agent.historian; "
-        "print(sorted(m for m in ('torch', 'zenoh', 'rerun', 'control') if m in sys.modules))"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "[]"
-
-
-def test_the_agents_core_names_its_types_without_importing_the_models_or_the_simulator():
-    code = (
-        "import sys, agent.core; "
-        "print(sorted(m for m in ('onnxruntime', 'sim', 'stiction', 'scipy', 'zenoh', 'torch') if m in sys.modules))"
-    )
+@pytest.mark.parametrize(
+    ("modules", "forbidden"),
+    [
+        # the pipeline: no torch, no network, no viewer, no control-systems toolbox
+        ("agent.pipeline, agent.analysis, agent.historian", ("torch", "zenoh", "rerun", "control")),
+        # the agent's core names its types without the models, onnxruntime or the simulator
+        ("agent.core", ("onnxruntime", "sim", "stiction", "scipy", "zenoh", "torch")),
+    ],
+)
+def test_what_the_agents_modules_import(modules, forbidden):
+    code = f"import sys, {modules}; print(sorted(m for m in {forbidden!r} if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 
