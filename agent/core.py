@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import logging
 import math
 from collections import Counter
@@ -76,6 +77,8 @@ class _Loop:
     reading_reports: int = 0
     verdict: str | None = None
     """The verdict of this loop's last report (None before the first)."""
+    reported_to_s: float = -math.inf
+    """End of the latest window of this loop reported by any agent (seen on the key space)."""
     queued: bool = False
     """In the core's queue of due loops: ``due`` looks at these only, not at every loop held."""
 
@@ -231,8 +234,8 @@ class AgentCore:
             # the replica keeps the owner's schedule without reporting, so that after a take-over it
             # reports each interval once, on time, not at once with everything it has counted
             state.new_since_report = 0
-            if not self.owns(loop_id):
-                continue
+            if not self.owns(loop_id) or (w.t_end_s is not None and w.t_end_s <= state.reported_to_s):
+                continue  # another agent's, or reported already by the owner that has just died
             op, pv = w.get()
             window = Window(
                 loop_id,
@@ -263,6 +266,20 @@ class AgentCore:
                 self.readings_deferred += 1
             out[i] = (window, arrived)
         return out
+
+    def seen_report(self, key: str, payload: bytes) -> None:
+        """A report on the key space (from any agent): the loop's windows up to its end are reported.
+        Only the end time is read; anything unreadable is ignored (it cannot stop a report)."""
+        loop_id = keys.loop_id_of(self.settings.prefix, key)
+        state = self.loops.get(loop_id) if loop_id is not None else None
+        if state is None:
+            return
+        try:
+            t_end_s = json.loads(payload).get("t_end_s")
+        except (ValueError, AttributeError):
+            return
+        if isinstance(t_end_s, int | float):
+            state.reported_to_s = max(state.reported_to_s, float(t_end_s))
 
     def reported(self, loop_id: str, verdict: str, reading: Reading | None) -> None:
         """A report went out: keep its fresh friction reading, count a carried one, or drop the

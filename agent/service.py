@@ -72,6 +72,7 @@ class AgentService:
         )
         self.latest: dict[str, bytes] = {}
         self._inbox: deque = deque()
+        self._reports_seen: deque = deque()  # (key, payload) of reports published by any agent
         self._wake = threading.Event()
         self._alive: set[str] = set()
         self._alive_lock = threading.Lock()
@@ -100,6 +101,12 @@ class AgentService:
                 self._alive.add(agent_id)
         self._wake.set()
 
+    def _on_report(self, sample) -> None:
+        """Every agent's reports (this one's too): after a take-over, a window the old owner had
+        already reported before it died is not reported again."""
+        self._reports_seen.append((str(sample.key_expr), sample.payload.to_bytes()))
+        self._wake.set()
+
     def _on_truth(self, sample) -> None:
         try:
             truth = LoopTruth.model_validate_json(sample.payload.to_bytes())
@@ -124,6 +131,7 @@ class AgentService:
             s.liveliness().declare_subscriber(keys.all_agents(p), self._on_agent, history=True),
             s.liveliness().declare_token(keys.agent_token(p, self.settings.agent_id)),
             s.declare_subscriber(keys.all_samples(p), self._on_sample),
+            s.declare_subscriber(keys.all_reports(p), self._on_report),
             s.declare_queryable(keys.all_reports(p), self._on_query),
         ]
         if self.sink is not None:  # the viewer shows the truth where the simulator publishes it
@@ -151,6 +159,8 @@ class AgentService:
         with self._alive_lock:
             alive = set(self._alive)
         self.core.set_agents(alive)
+        while self._reports_seen:  # before any window is due: a report made elsewhere is never made twice
+            self.core.seen_report(*self._reports_seen.popleft())
         n = 0
         limit = INGEST_PER_PASS if len(self._inbox) <= BACKLOG_MESSAGES else len(self._inbox)
         while self._inbox and n < limit:

@@ -271,3 +271,24 @@ def test_due_from_the_queue_equals_a_scan_of_every_loop():
             assert {w.loop_id for w, _ in core.due()} == scan
             reported += len(scan)
     assert reported > 50
+
+
+def test_a_replica_taking_over_late_does_not_report_a_window_the_dead_owner_had_reported():
+    a, b = (AgentCore(x, CoreSettings(window_samples=100, report_every_samples=20, stagger=False)) for x in "ab")
+    for core in (a, b):
+        core.set_agents({"a", "b"})
+    loop = next(f"L{i}" for i in range(100) if a.owns(f"L{i}"))
+    key = f"stiction/demo/loop/{loop}/samples"
+    for seq in range(0, 100, 10):
+        for core in (a, b):
+            core.ingest(key, _payload(seq, loop_id=loop), JSON, float(seq))
+    ((window, _),) = a.due()  # the owner reports the window ending at 99 ...
+    report = json.dumps({"loop_id": loop, "t_end_s": window.t_end_s}).encode()
+    b.seen_report(f"stiction/demo/loop/{loop}/report", report)
+    b.set_agents({"b"})  # ... and dies before the replica, behind, has looked at that window
+    assert b.due() == []
+    for seq in range(100, 120, 10):
+        b.ingest(key, _payload(seq, loop_id=loop), JSON, float(seq))
+    ((later, _),) = b.due()  # the next window is the replica's
+    assert later.t_end_s == window.t_end_s + 20
+    b.seen_report(f"stiction/demo/loop/{loop}/report", b"not json")  # ignored, never raised
