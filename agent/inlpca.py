@@ -121,6 +121,16 @@ CHUNK_WINDOWS = 50
 einsum: for these small inner dimensions einsum was 10-20x slower."""
 
 
+def warm_up() -> None:
+    """Compile (or load from its cache) the training loop now, not in the first report's time: the
+    first compile on a machine takes a few seconds."""
+    t = np.arange(MIN_WARM_UP_SAMPLES, dtype=float)
+    fit(np.sin(t / 5)[None], np.cos(t / 5)[None], InlpcaSettings(iterations=1, fit_samples=16, curve_points=16))
+
+
+MIN_WARM_UP_SAMPLES = 32
+
+
 def fit(
     op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings = DEFAULT_SETTINGS, reference: bool = False
 ) -> InlpcaFit:

@@ -16,6 +16,7 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
+from agent import inlpca
 from agent.core import AgentCore, CoreSettings
 from agent.pipeline import Quantifier
 from schemas import keys
@@ -126,6 +127,7 @@ class AgentService:
 
     # lifecycle ---------------------------------------------------------------------------------
     def start(self) -> AgentService:
+        inlpca.warm_up()  # before the first samples: a first compile must not delay the first reports
         p, s = self.settings.prefix, self.session
         self._declared = [
             s.liveliness().declare_subscriber(keys.all_agents(p), self._on_agent, history=True),
