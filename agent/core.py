@@ -249,10 +249,12 @@ class AgentCore:
                 interpolated=state.interpolated(),
                 carry=state.reading,
             )
-            if state.reading is None and state.verdict not in (None, "stiction"):
-                window = dataclasses.replace(window, carry=None)  # read at once should it turn sticky
-            elif state.reading is None or state.reading_reports >= every:
-                wanting.append((math.inf if state.reading is None else state.reading_reports, len(out)))
+            # a loop last called not sticky has no reading to carry and is read at once should it turn
+            # sticky, outside the ration; the others want a reading when theirs is missing or stale
+            if state.reading is not None and state.reading_reports >= every:
+                wanting.append((state.reading_reports, len(out)))
+            elif state.reading is None and state.verdict in (None, "stiction"):
+                wanting.append((math.inf, len(out)))
             out.append((window, state.arrived_at))
         behind = now_s is not None and bool(out) and now_s - min(a for _, a in out) > self.settings.reading_lag_s
         grant = -(-len(out) // every) if behind else len(wanting)

@@ -60,6 +60,10 @@ class RollingWindow:
         """Ring positions of the last ``m`` of the ``n`` samples that start at ``seq``."""
         return (seq + n - m + np.arange(m)) % self.size
 
+    def _held(self) -> np.ndarray:
+        """Ring positions of the samples held, oldest first."""
+        return self._tail(self.next_seq - self.count, self.count, self.count)
+
     def _update_sp(self, seq: int, n: int, sp) -> None:
         if sp is None:
             self._sp_missing_until = seq + n
@@ -79,8 +83,7 @@ class RollingWindow:
             return None
         if self._sp is None:
             return None if self._sp_const is None else np.full(self.count, self._sp_const, DTYPE)
-        idx = (self.next_seq - self.count + np.arange(self.count)) % self.size
-        return self._sp[idx]
+        return self._sp[self._held()]
 
     def holds(self, seq: int, op, pv) -> bool:
         """These samples, at these sequence numbers, are already in the window (a repeated message)."""
@@ -95,7 +98,7 @@ class RollingWindow:
         """OP and PV of the samples held, oldest first."""
         if self.next_seq is None:
             return np.empty(0), np.empty(0)
-        idx = (self.next_seq - self.count + np.arange(self.count)) % self.size
+        idx = self._held()
         return self._op[idx], self._pv[idx]
 
     def snapshot(self) -> dict:
