@@ -124,11 +124,8 @@ einsum: for these small inner dimensions einsum was 10-20x slower."""
 def warm_up() -> None:
     """Compile (or load from its cache) the training loop now, not in the first report's time: the
     first compile on a machine takes a few seconds."""
-    t = np.arange(MIN_WARM_UP_SAMPLES, dtype=float)
+    t = np.arange(32, dtype=float)  # a tiny window and one iteration: only the compile costs
     fit(np.sin(t / 5)[None], np.cos(t / 5)[None], InlpcaSettings(iterations=1, fit_samples=16, curve_points=16))
-
-
-MIN_WARM_UP_SAMPLES = 32
 
 
 def fit(
