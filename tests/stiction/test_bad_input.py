@@ -143,6 +143,8 @@ def test_one_bad_file_never_stops_the_others(tmp_path, capsys):
         (["quantify", "--every", "0", "x.csv"], "--every 0"),
         (["diagnose", "--max-causes", "-1", "x.csv"], "--max-causes -1"),
         (["quantify", "nope.csv"], "nope.csv: no such file"),
+        (["agent", "--estimate-every", "0"], "--estimate-every at least 1"),
+        (["agent", "--first-window", "50"], "at least 100 samples"),
     ],
 )
 def test_bad_flags_and_paths(capsys, argv, expected):
