@@ -11,10 +11,12 @@ ellipse fitted to the PV-OP plot (Choudhury, Thornhill & Shah 2005) along OP.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
+from detect import kernels
 from detect.oscillation import detrend
 
 NGI_MIN = 0.001
@@ -31,36 +33,43 @@ class Bicoherence:
 
 def squared_bicoherence(x: np.ndarray, segment: int) -> tuple[np.ndarray, int]:
     """[F, F] squared bicoherence over the principal domain (others nan) and the segment count."""
+    f = segment // 2
+    values, k = _domain_values(x, segment)
+    b2 = np.full((f, f), np.nan)
+    i1, i2 = _domain(f)
+    b2[i1, i2] = values
+    return b2, k
+
+
+def _domain_values(x: np.ndarray, segment: int) -> tuple[np.ndarray, int]:
+    """The squared bicoherence at each pair of ``_domain`` (nan where undefined) and the segment count:
+    half-overlapping Hann-windowed segments, one FFT for all, the sums over segments compiled."""
     x = detrend(np.asarray(x, float))
     x = x / (np.std(x) or 1.0)
     step = segment // 2
     starts = np.arange(0, x.size - segment + 1, step)
     segs = x[starts[:, None] + np.arange(segment)]  # [K, segment], half overlapping
     spectra = np.fft.fft(np.hanning(segment) * (segs - segs.mean(axis=1, keepdims=True)), axis=1)
-    k = len(starts)
-    f = segment // 2
-    b2 = np.full((f, f), np.nan)
-    i1, i2 = _domain(f)  # only the principal domain is computed
-    x1, x2, x12 = spectra[:, i1], spectra[:, i2], spectra[:, i1 + i2]
-    num = np.abs(np.sum(x1 * x2 * np.conj(x12), axis=0)) ** 2
-    den = np.sum(np.abs(x1 * x2) ** 2, axis=0) * np.sum(np.abs(x12) ** 2, axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        b2[i1, i2] = np.where(den > 0, num / den, np.nan)
-    return b2, k
+    i1, i2 = _domain(segment // 2)  # only the principal domain is computed
+    return kernels.squared_bicoherence(spectra, i1, i2), len(starts)
 
 
+@functools.lru_cache(maxsize=8)
 def _domain(f: int) -> tuple[np.ndarray, np.ndarray]:
-    """Frequency index pairs of the principal domain: 0 < i2 <= i1, i1 + i2 < f."""
+    """Frequency index pairs of the principal domain: 0 < i2 <= i1, i1 + i2 < f (read-only, cached)."""
     i1, i2 = np.meshgrid(np.arange(f), np.arange(f), indexing="ij")
     inside = (i2 <= i1) & (i1 + i2 < f) & (i2 > 0)
-    return i1[inside], i2[inside]
+    out = np.ascontiguousarray(i1[inside]), np.ascontiguousarray(i2[inside])
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def test(x: np.ndarray) -> Bicoherence:
     """NGI and NLI of one signal (the control error or PV)."""
     n = np.asarray(x).size
     segment = int(2 ** np.clip(np.floor(np.log2(n / 4)), 5, 7))  # 32..128 samples, at least ~7 segments
-    b2, k = squared_bicoherence(x, segment)
+    b2, k = _domain_values(x, segment)
     values = b2[np.isfinite(b2)]
     if values.size == 0 or k < 2:
         return Bicoherence(float("nan"), float("nan"), False)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import median_filter
 
-from detect import bicoherence, horch, oscillation, shape
+from detect import bicoherence, horch, kernels, oscillation, shape
 
 NAMES = (
     "regularity_log",
@@ -44,44 +44,22 @@ def _edges(x: np.ndarray) -> np.ndarray:
     return median_filter(x, size=(1, EDGE_MEDIAN), mode="nearest")
 
 
-def jump_share(x: np.ndarray) -> float:
+def _jump_share(y: np.ndarray) -> float:
     """Share of the (median-filtered) signal's total variation spent in its largest 5 % of steps:
     near 1 for a signal that stands still and jumps, about 0.1-0.2 for a smooth or noisy one."""
-    return _jump_share(_edges(np.asarray(x, float)[None, :])[0])
-
-
-def _jump_share(y: np.ndarray) -> float:
-    d = np.abs(np.diff(y))
-    total = d.sum()
-    if not total > 0:
-        return 0.0
-    k = max(1, int(TOP_SHARE * d.size))
-    return float(np.sort(d)[-k:].sum() / total)
-
-
-def still_share(pv: np.ndarray, op: np.ndarray) -> float:
-    """Share of the window in which PV's filtered level stays within its noise while OP moves by
-    more than its noise: the valve stuck while the controller winds up."""
-    pv = np.asarray(pv, float)
-    return _still_share(_edges(pv[None, :])[0], pv, np.asarray(op, float))
+    return float(kernels.jump_share(np.ascontiguousarray(y, dtype=float), TOP_SHARE))
 
 
 def _still_share(y: np.ndarray, pv: np.ndarray, u: np.ndarray) -> float:
-    noise_pv = 1.4826 * np.median(np.abs(np.diff(pv))) + 1e-12
-    noise_op = 1.4826 * np.median(np.abs(np.diff(u))) + 1e-12
-    span = max(EDGE_MEDIAN * 2, u.size // 30)
-    k = np.arange(0, u.size - span, span // 2)
-    if k.size == 0:
-        return 0.0
-    pv_moves = np.abs(y[k + span] - y[k])
-    op_moves = np.abs(u[k + span] - u[k])
-    return float(np.mean((pv_moves < 2 * noise_pv) & (op_moves > 3 * noise_op)))
+    """Share of the window in which PV's filtered level ``y`` stays within its noise while OP moves by
+    more than its noise: the valve stuck while the controller winds up."""
+    return float(kernels.still_share(*(np.ascontiguousarray(a, dtype=float) for a in (y, pv, u)), EDGE_MEDIAN))
 
 
-def kurtosis(x: np.ndarray) -> float:
-    d = x - x.mean()
-    v = np.mean(d * d)
-    return float(np.mean(d**4) / v**2) if v > 0 else 3.0
+def warm_up() -> None:
+    """Compile (or load from their cache) the evidence's kernels now, not in the first report's time."""
+    t = np.arange(200, dtype=float)
+    evidence(np.sin(t / 7), np.sign(np.sin(t / 7)), 1.0)
 
 
 def evidence(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sp: np.ndarray | None = None) -> Evidence:
@@ -119,7 +97,7 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv) -> Evidence:
             _jump_share(edges_pv),
             _jump_share(edges_op),
             _still_share(edges_pv, pv, op),
-            np.log(kurtosis(np.diff(edges_pv)) + 1e-3),
+            np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv)) + 1e-3),
         ]
     )
     return Evidence(osc, h, b, si_op, si_pv, vector)

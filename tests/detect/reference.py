@@ -78,3 +78,28 @@ def squared_bicoherence(x, segment):
             if den > 0:
                 out[i1, i2] = np.abs(np.sum(x1 * x2 * np.conj(x12))) ** 2 / den
     return out, len(spectra)
+
+
+def jump_share(y, top_share):
+    steps = sorted(abs(b - a) for a, b in zip(y[:-1], y[1:], strict=True))
+    total = sum(steps)
+    if not total > 0:
+        return 0.0
+    k = max(1, int(top_share * len(steps)))
+    return sum(steps[-k:]) / total
+
+
+def still_share(y, pv, u, edge):
+    noise_pv = 1.4826 * np.median(np.abs(np.diff(pv))) + 1e-12
+    noise_op = 1.4826 * np.median(np.abs(np.diff(u))) + 1e-12
+    span = max(edge * 2, len(u) // 30)
+    spans = [k for k in range(0, len(u) - span, span // 2)]
+    hits = [abs(y[k + span] - y[k]) < 2 * noise_pv and abs(u[k + span] - u[k]) > 3 * noise_op for k in spans]
+    return sum(hits) / len(hits) if hits else 0.0
+
+
+def step_kurtosis(y):
+    d = np.diff(y)
+    d = d - d.mean()
+    v = np.mean(d * d)
+    return float(np.mean(d**4) / v**2) if v > 0 else 3.0

@@ -69,7 +69,7 @@ def test_ellipse_band_is_the_plot_width_at_mean_pv():
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_vectorised_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed):
+def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed):
     from detect.oscillation import _amplitude, detrend, half_cycles
     from detect.shape import stiction_index
     from tests.detect import reference
@@ -88,7 +88,7 @@ def test_vectorised_amplitude_and_shape_index_equal_the_per_half_cycle_loops(see
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_vectorised_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
+def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
     from detect.bicoherence import squared_bicoherence
     from detect.oscillation import _crossings, detrend
     from tests.detect import reference
@@ -106,3 +106,22 @@ def test_vectorised_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed
     ref, k_ref = reference.squared_bicoherence(x, 32)
     assert k == k_ref
     np.testing.assert_allclose(b2, ref, rtol=1e-9, atol=1e-12, equal_nan=True)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_stick_slip_shares_equal_the_plain_loops(seed):
+    from detect import kernels
+    from detect.features import EDGE_MEDIAN, TOP_SHARE, _edges
+    from tests.detect import reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(120, 1500))
+    op = np.cumsum(rng.standard_normal(n)) * rng.uniform(0.1, 2)
+    pv = np.round(op / rng.uniform(0.5, 5)) + rng.uniform(0, 0.3) * rng.standard_normal(n)  # stands still, jumps
+    if seed == 0:
+        pv[:] = 1.0  # no steps at all
+    y, u = _edges(pv[None])[0], _edges(op[None])[0]
+    for x in (y, u):
+        assert kernels.jump_share(x, TOP_SHARE) == pytest.approx(reference.jump_share(x, TOP_SHARE), rel=1e-12)
+        assert kernels.step_kurtosis(x) == pytest.approx(reference.step_kurtosis(x), rel=1e-9)
+    assert kernels.still_share(y, pv, op, EDGE_MEDIAN) == reference.still_share(y, pv, op, EDGE_MEDIAN)

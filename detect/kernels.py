@@ -1,0 +1,183 @@
+"""The window's evidence where numpy pays per call, compiled: half-cycle fits, zero crossings,
+half-cycle peaks and the stick-slip shares.
+
+Each walks a 1000-sample window once or a few times with decisions per sample or per half
+cycle; in numpy they were some 60 small calls a window (0.6 ms of the 1.25 ms the evidence
+cost).  numba compiles them (``cache=True``: once per machine, as ``ident/kernels.py``); the
+plain loops in ``tests/detect/reference.py`` are the references they are tested against.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def crossings(x, hysteresis):
+    """Indices where ``x`` passes from below ``-h`` to above ``+h`` or back, each walked back to
+    the first sample of the run of the new sign before it (``detect.oscillation``)."""
+    n = x.size
+    out = np.empty(n, np.int64)
+    count = 0
+    state = 0
+    for k in range(n):
+        v = x[k]
+        s = 1 if v > hysteresis else (-1 if v < -hysteresis else 0)
+        if s != 0 and s != state:
+            if state != 0:
+                j = k
+                while j > 0 and (x[j - 1] > 0 if s == 1 else x[j - 1] < 0):
+                    j -= 1
+                out[count] = j
+                count += 1
+            state = s
+    return out[:count]
+
+
+@njit(cache=True, nogil=True)
+def half_cycle_peaks(y, crossings):
+    """Median over half cycles ``[a, b)`` of the 90th percentile (numpy's linear rule) of ``|y|``;
+    nan without a half cycle."""
+    n_half = crossings.size - 1
+    swings = np.empty(max(n_half, 0))
+    used = 0
+    for h in range(n_half):
+        a, b = crossings[h], crossings[h + 1]
+        if b <= a:
+            continue
+        v = np.sort(np.abs(y[a:b]))
+        pos = 0.9 * (b - a - 1)
+        lo = int(math.floor(pos))
+        hi = min(lo + 1, b - a - 1)
+        swings[used] = v[lo] + (v[hi] - v[lo]) * (pos - lo)
+        used += 1
+    if used == 0:
+        return np.nan
+    return np.median(swings[:used])
+
+
+@njit(cache=True, nogil=True)
+def shape_errors(y, crossings, apexes, min_samples):
+    """``(sum of the half sine's MSE, sum of the best triangle's MSE, half cycles used)`` over the
+    half cycles ``y[a..b]`` (both ends) of at least ``min_samples`` samples, each fitted with
+    ``p * shape + q`` in closed form (``detect.shape``)."""
+    mse_sine = 0.0
+    mse_triangle = 0.0
+    used = 0
+    n_apex = apexes.size
+    for h in range(crossings.size - 1):
+        a, b = crossings[h], crossings[h + 1]
+        m = b - a + 1
+        if m < min_samples:
+            continue
+        used += 1
+        sy = 0.0
+        syy = 0.0
+        for k in range(m):
+            v = y[a + k]
+            sy += v
+            syy += v * v
+        cyy = syy - sy * sy / m
+        best = np.inf
+        for s in range(n_apex + 1):
+            ss = 0.0
+            sss = 0.0
+            ssy = 0.0
+            for k in range(m):
+                u = k / (m - 1)
+                if s == 0:
+                    f = math.sin(math.pi * u)
+                else:
+                    p = apexes[s - 1]
+                    f = u / p if u <= p else (1 - u) / (1 - p)
+                v = y[a + k]
+                ss += f
+                sss += f * f
+                ssy += f * v
+            css = sss - ss * ss / m
+            csy = ssy - ss * sy / m
+            mse = max(cyy - csy * csy / css, 0.0) / m
+            if s == 0:
+                mse_sine += mse
+            elif mse < best:
+                best = mse
+        mse_triangle += best
+    return mse_sine, mse_triangle, used
+
+
+@njit(cache=True, nogil=True)
+def _abs_steps(x):
+    d = np.empty(x.size - 1)
+    for k in range(d.size):
+        d[k] = abs(x[k + 1] - x[k])
+    return d
+
+
+@njit(cache=True, nogil=True)
+def jump_share(y, top_share):
+    """Share of ``y``'s total variation spent in its largest ``top_share`` of steps (``detect.features``)."""
+    d = _abs_steps(y)
+    total = d.sum()
+    if not total > 0:
+        return 0.0
+    k = max(1, int(top_share * d.size))
+    return np.sort(d)[d.size - k :].sum() / total
+
+
+@njit(cache=True, nogil=True)
+def still_share(y, pv, u, edge):
+    """Share of spans in which ``y`` (PV's filtered level) stays within twice PV's noise while OP
+    ``u`` moves by more than three times its own (``detect.features``)."""
+    noise_pv = 1.4826 * np.median(_abs_steps(pv)) + 1e-12
+    noise_op = 1.4826 * np.median(_abs_steps(u)) + 1e-12
+    span = max(edge * 2, u.size // 30)
+    step = span // 2
+    count = 0
+    hits = 0
+    for k in range(0, u.size - span, step):
+        count += 1
+        if abs(y[k + span] - y[k]) < 2 * noise_pv and abs(u[k + span] - u[k]) > 3 * noise_op:
+            hits += 1
+    return hits / count if count else 0.0
+
+
+@njit(cache=True, nogil=True)
+def step_kurtosis(y):
+    """Kurtosis of ``y``'s steps (3.0 for steps that never vary)."""
+    n = y.size - 1
+    mean = (y[n] - y[0]) / n
+    v = 0.0
+    q = 0.0
+    for k in range(n):
+        x = y[k + 1] - y[k]
+        e = (x - mean) * (x - mean)
+        v += e
+        q += e * e
+    v /= n
+    q /= n
+    return q / (v * v) if v > 0 else 3.0
+
+
+@njit(cache=True, nogil=True)
+def squared_bicoherence(spectra, i1, i2):
+    """``|sum X(f1) X(f2) X*(f1+f2)|^2 / (sum |X(f1) X(f2)|^2 sum |X(f1+f2)|^2)`` over the segments
+    (rows of ``spectra``) at each frequency pair ``(i1, i2)``; nan where the denominator is 0
+    (``detect.bicoherence``)."""
+    out = np.empty(i1.size)
+    for p in range(i1.size):
+        a, b = i1[p], i2[p]
+        num = 0j
+        d12 = 0.0
+        d3 = 0.0
+        for k in range(spectra.shape[0]):
+            x1, x2, x12 = spectra[k, a], spectra[k, b], spectra[k, a + b]
+            prod = x1 * x2
+            num += prod * x12.conjugate()
+            d12 += prod.real * prod.real + prod.imag * prod.imag
+            d3 += x12.real * x12.real + x12.imag * x12.imag
+        den = d12 * d3
+        out[p] = (num.real * num.real + num.imag * num.imag) / den if den > 0 else np.nan
+    return out
