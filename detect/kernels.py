@@ -124,7 +124,7 @@ def jump_share(y, top_share):
     if not total > 0:
         return 0.0
     k = max(1, int(top_share * d.size))
-    return np.sort(d)[d.size - k :].sum() / total
+    return np.partition(d, d.size - k)[d.size - k :].sum() / total
 
 
 @njit(cache=True, nogil=True)
