@@ -30,6 +30,7 @@ from agent.window import Reading, Window
 from detect.features import evidence_rows
 from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
+from ident import controller
 from ident.checks import blocking, data_checks, impossible_friction
 from schemas.report import Estimate, ProcessInfo, StictionReport
 from sim.process import LOOPS
@@ -133,9 +134,12 @@ class Quantifier:
 
     def _batch(self, op, pv, ts_s, windows, denoise, details=True) -> list[Result]:
         n = op.shape[0]
-        level = np.array([w.process == "level" for w in windows])
+        sps = [None if w.sp is None else np.asarray(w.sp, float) for w in windows]
+        declared = np.array([w.process == "level" for w in windows])
+        identified = _canonical_level(op, pv, ts_s, sps, ~declared)
+        level = declared | identified
         problems_all = [data_checks(op[i], pv[i]) for i in range(n)]
-        evs = evidence_rows(op, pv, ts_s, [None if w.sp is None else np.asarray(w.sp, float) for w in windows])
+        evs = evidence_rows(op, pv, ts_s, sps)
         verdicts = [
             decide(self.detector, ev, [c.message for c in blocking(problems)])
             for ev, problems in zip(evs, problems_all, strict=True)
@@ -186,11 +190,13 @@ class Quantifier:
             if w.interpolated:
                 warnings.append(f"{w.interpolated} samples interpolated across gaps in the stream")
             if not level[i]:
-                warnings.append("process not declared: the physical reading of the slips (level loop) is not used")
+                warnings.append(
+                    "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
+                )
             if carried[i] or deferred[i]:
                 extra = list(w.carry.warnings) if carried[i] else [DEFERRED_WARNING]
                 report = self._report(w, i, a, use, "none", (np.nan,) * 4, _NOTHING_SHOWN, verdict, ev, problems,
-                                      warnings + extra, ood, level, ts_s)  # fmt: skip
+                                      warnings + extra, ood, level, ts_s, identified)  # fmt: skip
                 if carried[i]:
                     report = report.model_copy(update=w.carry.fields)
                 results.append(Result(report, None, None))
@@ -212,7 +218,7 @@ class Quantifier:
             elif method == "none":
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
             report = self._report(
-                w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s
+                w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified
             )
             reading = None
             if verdict.verdict == "stiction":
@@ -223,7 +229,7 @@ class Quantifier:
             return results
         return [r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)]
 
-    def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s):
+    def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified):
         """Assembly only: the numbers chosen above, as the report's fields."""
         fs, fd, fs_se, fd_se = (_opt(v) for v in estimate)
         s_pct = j_pct = s_se = j_se = None
@@ -241,7 +247,7 @@ class Quantifier:
             regularity=_opt(ev.oscillation.regularity),
             amplitude_pct=_opt(ev.oscillation.amplitude_pct),
             checks=[c.name for c in problems],
-            process=_process(w, ts_s),
+            process=_process(w, ts_s, bool(identified[i])),
             fs_pct=fs,
             fd_pct=fd,
             s_pct=s_pct,
@@ -350,7 +356,21 @@ def _choose(candidates, op_range_pct: float, verdict: str):
     return method, chosen, shown, warnings
 
 
-def _process(w: Window, ts_s: float) -> ProcessInfo:
-    if w.process == "level":
-        return ProcessInfo(kind="integrating", source="declared", gain=LOOPS["level"].gain, sample_time_s=ts_s)
+def _process(w: Window, ts_s: float, identified: bool) -> ProcessInfo:
+    if w.process == "level" or identified:
+        source = "declared" if w.process == "level" else "identified"
+        return ProcessInfo(kind="integrating", source=source, gain=LOOPS["level"].gain, sample_time_s=ts_s)
     return ProcessInfo(kind="unknown", source="none", sample_time_s=ts_s)
+
+
+def _canonical_level(op, pv, ts_s: float, sps, undeclared: np.ndarray) -> np.ndarray:
+    """Which undeclared windows are the thesis's level loop: its PI (Kc 3, Ti 30 s at 1 s sampling)
+    read off the record (``ident.controller``); the physical reading then checks the process."""
+    out = np.zeros(op.shape[0], bool)
+    canonical = LOOPS["level"]
+    if ts_s != 1.0 or not undeclared.any():
+        return out
+    idx = np.flatnonzero(undeclared)
+    fit = controller.fit_pi(op[idx], pv[idx], ts_s, [sps[i] for i in idx])
+    out[idx] = controller.matches(fit, canonical.controller_gain, canonical.integral_time_s)
+    return out

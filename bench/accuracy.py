@@ -26,6 +26,7 @@ HOLDOUT_SEED = 20261121
 METHODS = {
     "a_thesis": "(a) thesis chain: ACF, INLPCA, rebuilt OP, 100-sample MLP",
     "b_pipeline": "(b) pipeline: physical reading, else cycle ensemble",
+    "b_no_flags": "(b) the same without --process level (identified)",
     "c_hammerstein": "(c) Hammerstein search, He's valve, known process",
     "c_ellipse": "(c) Choudhury ellipse, apparent stiction (fs only)",
 }
@@ -46,6 +47,10 @@ def test_sets(realisations: int, seeds: int, holdout: int) -> dict[str, tuple[li
 def _mae(est: np.ndarray, truth: np.ndarray) -> float:
     ok = np.isfinite(est)
     return float(np.mean(np.abs(est[ok] - truth[ok]))) if ok.any() else float("nan")
+
+
+def _nan(x: float | None) -> float:
+    return np.nan if x is None else x
 
 
 def _timed(fn):
@@ -86,6 +91,15 @@ def bench_accuracy(
                 for x in reports
             ]
         )
+        undeclared = [Window(w.loop_id, w.op, w.pv) for w in windows]
+        plain, t_plain = _timed(lambda w=undeclared: quantifier.quantify(w))
+        c = np.array([[_nan(x.fs_pct), _nan(x.fd_pct)] for x in plain])
+        results["b_no_flags"][set_name] = {
+            "mae_pp": _mae(c, truth),
+            "s_per_loop": t_plain / n,
+            "n": n,
+            "identified": sum(x.process.source == "identified" for x in plain),
+        }
         methods_used = {m: sum(x.method == m for x in reports) for m in ("physical", "learned", "thesis", "none")}
         results["a_thesis"][set_name] = {"mae_pp": _mae(a, truth), "s_per_loop": t_thesis / n, "n": n}
         results["b_pipeline"][set_name] = {

@@ -69,7 +69,7 @@ def _table(reports, truths, rows: int, elapsed: float, published: int, loops: in
             lines.append(f"{loop_id:10s} {true:>14s} {'-':>14s} {'':>7s} {'':>9s} {'':>8s}  {why}")
             continue
         err = (abs(r.fs_pct - t.fs_pct) + abs(r.fd_pct - t.fd_pct)) / 2
-        status = "; ".join(w.split(":")[0] for w in r.warnings if "process not declared" not in w) or "ok"
+        status = "; ".join(w.split(":")[0] for w in r.warnings if "neither declared nor identified" not in w) or "ok"
         period = f"{r.period_s:8.1f}" if r.period_s else f"{'-':>8s}"
         lines.append(
             f"{loop_id:10s} {true:>14s} {r.fs_pct:6.1f}/{r.fd_pct:5.1f}  {err:7.2f} {r.method:>9s} "

@@ -45,9 +45,18 @@ def _summary(path: str, r) -> str:
         f"   fs {f(r.fs_pct)} %  fd {f(r.fd_pct)} %  (of 500 lbf){se}",
         f"  period {f(r.period_s)} s   method {r.method}   denoised {'yes' if r.denoised else 'no'}"
         f"   ood {f(r.ood_score, 2)}   thesis chain: fs {f(r.thesis.fs_pct)} %  fd {f(r.thesis.fd_pct)} %",
+        f"  process {_process_line(r.process)}",
     ]
     lines += [f"  warning: {w}" for w in r.warnings]
     return "\n".join(lines)
+
+
+def _process_line(p) -> str:
+    if p.source == "none":
+        return "unknown (neither declared with --process nor identified)"
+    how = "declared" if p.source == "declared" else "identified from the record: the thesis's level loop (its PI, Kc 3, Ti 30 s)"
+    gain = f", gain {p.gain:.4g} %/s per %" if p.gain is not None and p.kind == "integrating" else ""
+    return f"{p.kind.replace('_', '-')}{gain} ({how})"
 
 
 def _plot(png: Path, window, report, details) -> Path:

@@ -52,18 +52,38 @@ def test_white_noise_windows_are_denoised_and_carry_an_uncertainty(quantifier, c
     assert np.mean(errors) < 1.5
 
 
-def test_every_report_carries_the_thesis_chain_and_validates(quantifier, cases):
+def test_without_flags_the_thesis_loop_is_identified_and_read_as_if_declared(quantifier, cases):
     specs, r = cases
-    reports = quantifier.quantify(_windows(specs, r, process=None))
-    for rep in reports:
+    undeclared = quantifier.quantify(_windows(specs, r, process=None))
+    declared = quantifier.quantify(_windows(specs, r))
+    for rep, told in zip(undeclared, declared, strict=True):
+        assert rep.process.source == "identified" and told.process.source == "declared"
+        assert (rep.verdict, rep.method) == (told.verdict, told.method)
+        assert rep.fs_pct == told.fs_pct and rep.fd_pct == told.fd_pct
         if rep.verdict == "stiction":
-            assert rep.thesis.fs_pct is not None and rep.method != "physical"
+            assert rep.thesis.fs_pct is not None
         else:  # no friction numbers for a loop the detector does not call sticky, and a warning says why
             assert rep.fs_pct is None and rep.s_pct is None and rep.thesis.fs_pct is None and rep.method == "none"
             assert any("no friction numbers" in w for w in rep.warnings)
         assert StictionReport.model_validate_json(rep.model_dump_json()) == rep
-    # every test case is a sticky valve: the detector must call most of them so without being told
-    assert sum(rep.verdict == "stiction" for rep in reports) >= 17
+    # every test case is a sticky valve: most are read from their slips, as when declared
+    assert sum(rep.verdict == "stiction" for rep in undeclared) >= 17
+    assert sum(rep.method == "physical" for rep in undeclared) >= 10
+
+
+def test_a_loop_with_another_controller_is_not_taken_for_the_thesis_loop(quantifier):
+    from sim.plant_loops import plant_loops, simulate_plant, stable
+
+    loops = [loop for loop in plant_loops(8, 31) if loop.every == 1]
+    windows = [
+        Window(f"{loop.cause}-{i}", op, pv, sp=sp)
+        for i, (loop, (op, pv, sp, _)) in enumerate(zip(loops, simulate_plant(loops), strict=True))
+        if stable(op, pv)
+    ]
+    assert len(windows) >= 4 and any(w.loop_id.startswith("stiction") for w in windows)
+    for rep in quantifier.quantify(windows):
+        assert rep.process.source == "none" and rep.method != "physical" and rep.physical is None
+        assert any("neither declared nor identified" in w for w in rep.warnings)
 
 
 def test_batched_equals_one_at_a_time(quantifier, cases):

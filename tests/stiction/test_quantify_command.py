@@ -39,10 +39,11 @@ def test_bad_file_is_named_and_the_others_still_reported(loops):
     assert json.loads(done.stdout)["loop_id"] == "a"
 
 
-def test_readable_summary(loops, capsys):
+def test_readable_summary_names_the_process_it_identified(loops, capsys):
     assert main(["quantify", str(loops / "a.csv")]) == 0
     out = capsys.readouterr().out
-    assert "fs 5" in out and "thesis chain" in out and "process not declared" in out
+    assert "fs 50.0 %" in out and "thesis chain" in out and "method physical" in out
+    assert "identified from the record: the thesis's level loop" in out
 
 
 def test_plot_writes_one_png_per_loop_that_is_not_blank(loops, tmp_path, capsys):
