@@ -27,6 +27,7 @@ from agent.analysis import WindowAnalysis, analyse
 from agent.features import CYCLE_FEATURES, THESIS_WINDOW
 from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
 from agent.window import Reading, Window
+from detect import features
 from detect.features import evidence_rows
 from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
@@ -354,6 +355,15 @@ def _choose(candidates, op_range_pct: float, verdict: str):
         if shown[name] is not None and method == "none":
             method, chosen = name, tuple(estimate)
     return method, chosen, shown, warnings
+
+
+def warm_up() -> None:
+    """Compile (or load from their caches) the compiled parts, INLPCA, evidence and the PI fit, now
+    rather than in the first report's time: a first compile on a machine takes seconds."""
+    inlpca.warm_up()
+    features.warm_up()
+    t = np.arange(64, dtype=float)
+    controller.fit_pi(np.sin(t / 5)[None], np.cos(t / 5)[None])
 
 
 def _process(w: Window, ts_s: float, identified: bool) -> ProcessInfo:

@@ -16,10 +16,8 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
-from agent import inlpca
 from agent.core import AgentCore, CoreSettings
-from agent.pipeline import Quantifier
-from detect import features
+from agent.pipeline import Quantifier, warm_up
 from schemas import keys
 from schemas.errors import StictionError
 from schemas.messages import AgentHealth, LoopTruth
@@ -128,8 +126,7 @@ class AgentService:
 
     # lifecycle ---------------------------------------------------------------------------------
     def start(self) -> AgentService:
-        inlpca.warm_up()  # before the first samples: a first compile must not delay the first reports
-        features.warm_up()
+        warm_up()  # before the first samples: a first compile must not delay the first reports
         p, s = self.settings.prefix, self.session
         self._declared = [
             s.liveliness().declare_subscriber(keys.all_agents(p), self._on_agent, history=True),

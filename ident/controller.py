@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ident import kernels
+
 MIN_EXPLAINED = 0.999
 """Share of OP's variance the PI must explain for its Kc and Ti to identify a controller."""
 MATCH_REL = 0.02
@@ -31,7 +33,8 @@ class PiFit:
     kc: np.ndarray
     ti_s: np.ndarray
     explained: np.ndarray
-    """1 - residual variance / OP variance of the fit (nan where OP does not move)."""
+    """1 - residual variance / OP variance of the fit (all three nan where OP does not move or the
+    error's columns are dependent: a flat PV)."""
 
 
 def fit_pi(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sps=None) -> PiFit:
@@ -40,25 +43,10 @@ def fit_pi(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sps=None) -> PiFit
     op, pv = np.atleast_2d(np.asarray(op, float)), np.atleast_2d(np.asarray(pv, float))
     n_win, n = op.shape
     sps = [None] * n_win if sps is None else sps
-    e = np.stack([-p if sp is None else np.asarray(sp, float) - p for p, sp in zip(pv, sps, strict=True)])
-    t = np.broadcast_to(np.arange(n, dtype=float) / n, (n_win, n))
-    x = np.stack([np.ones((n_win, n)), t, e, np.cumsum(e, axis=1) * ts_s], axis=2)  # [W, N, 4]
-    scale = np.sqrt(np.einsum("wnk,wnk->wk", x, x)) + 1e-300
-    xs = x / scale[:, None, :]
-    coef = np.full((n_win, 4), np.nan)
-    explained = np.full(n_win, np.nan)
-    for w in range(n_win):
-        var = float(np.var(op[w]))
-        if not var > 0 or not np.all(np.isfinite(xs[w])):
-            continue
-        c, *_ = np.linalg.lstsq(xs[w], op[w], rcond=None)
-        coef[w] = c / scale[w]
-        r = op[w] - xs[w] @ c
-        explained[w] = 1.0 - float(np.mean(r * r)) / var
-    kc = coef[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ti = np.where(coef[:, 3] != 0, kc / coef[:, 3], np.inf)
-    return PiFit(kc, ti, explained)
+    e = [-p if sp is None else np.asarray(sp, float) - p for p, sp in zip(pv, sps, strict=True)]
+    out = np.array([kernels.pi_fit(np.ascontiguousarray(op[w]), np.ascontiguousarray(e[w]), float(ts_s))
+                    for w in range(n_win)]).reshape(n_win, 3)  # fmt: skip
+    return PiFit(out[:, 0], out[:, 1], out[:, 2])
 
 
 def matches(fit: PiFit, kc: float, ti_s: float) -> np.ndarray:

@@ -53,3 +53,28 @@ def test_a_record_the_pi_does_not_explain_is_not_read_as_a_match():
     assert not matches(fit, canonical.controller_gain, canonical.integral_time_s).any()
     flat = fit_pi(np.ones((1, 300)), np.ones((1, 300)))
     assert np.isnan(flat.kc[0]) and not matches(flat, 3.0, 30.0)[0]
+
+
+def _reference(op, pv, ts_s, sp=None):
+    """numpy's least squares on the same four columns."""
+    n = op.size
+    e = (sp if sp is not None else 0.0) - pv
+    x = np.stack([np.ones(n), np.arange(n) / n, e, np.cumsum(e) * ts_s], axis=1)
+    scale = np.linalg.norm(x, axis=0)
+    c, *_ = np.linalg.lstsq(x / scale, op, rcond=None)
+    c /= scale
+    r = op - x @ c
+    return c[2], c[2] / c[3], 1 - np.var(r) / np.var(op)
+
+
+def test_the_compiled_fit_equals_numpys_least_squares():
+    records = [rec for _, rec in _plant(3, 44)]
+    r = simulate(random_loops(6, 79)).kept()
+    records += [(r.op[i], r.pv[i], r.sp[i], 1.0) for i in range(r.op.shape[0])]
+    for op, pv, sp, ts_s in records:
+        for sps in ([sp], None):
+            fit = fit_pi(op, pv, ts_s, sps)
+            kc, ti, explained = _reference(op, pv, ts_s, None if sps is None else sp)
+            assert fit.kc[0] == pytest.approx(kc, rel=1e-6, abs=1e-9)
+            assert fit.ti_s[0] == pytest.approx(ti, rel=1e-6)
+            assert fit.explained[0] == pytest.approx(explained, abs=1e-9)
