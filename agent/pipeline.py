@@ -191,9 +191,7 @@ class Quantifier:
             if w.interpolated:
                 warnings.append(f"{w.interpolated} samples interpolated across gaps in the stream")
             if not level[i]:
-                warnings.append(
-                    "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
-                )
+                warnings.append(NOT_IDENTIFIED)
             if carried[i] or deferred[i]:
                 extra = list(w.carry.warnings) if carried[i] else [DEFERRED_WARNING]
                 report = self._report(w, i, a, use, "none", (np.nan,) * 4, _NOTHING_SHOWN, verdict, ev, problems,
@@ -230,7 +228,9 @@ class Quantifier:
             return results
         return [r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)]
 
-    def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified):
+    def _report(
+        self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified
+    ):
         """Assembly only: the numbers chosen above, as the report's fields."""
         fs, fd, fs_se, fd_se = (_opt(v) for v in estimate)
         s_pct = j_pct = s_se = j_se = None
@@ -277,6 +277,7 @@ class Quantifier:
 
 
 _NOTHING_SHOWN = {"thesis": None, "physical": None, "learned": None}
+NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"

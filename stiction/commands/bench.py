@@ -264,7 +264,8 @@ def _accuracy(args) -> None:
     print(f"{'loops':55s}" + "".join(f"{n[s]:>22d}" for s in sets))
     print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
     found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
-    print("without flags, identified as the thesis's level loop: " + ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets))
+    cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)
+    print(f"without flags, identified as the thesis's level loop: {cells}")
     used = {s: figures["methods"]["b_pipeline"][s]["methods"] for s in sets}
     print(
         "(b) used: " + "; ".join(f"{s}: " + ", ".join(f"{k} {v}" for k, v in u.items() if v) for s, u in used.items())

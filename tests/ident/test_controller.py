@@ -38,7 +38,7 @@ def test_the_thesis_loop_matches_and_no_plant_like_loop_does():
     canonical = LOOPS["level"]
     r = simulate(random_loops(20, 77)).kept()
     assert matches(fit_pi(r.op, r.pv, 1.0), canonical.controller_gain, canonical.integral_time_s).all()
-    for loop, (op, pv, sp, ts_s) in _plant(8, 43):
+    for _loop, (op, pv, sp, ts_s) in _plant(8, 43):
         for sps in ([sp], None):
             assert not matches(fit_pi(op, pv, ts_s, sps), canonical.controller_gain, canonical.integral_time_s)[0]
 
