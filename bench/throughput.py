@@ -78,6 +78,18 @@ def _loops(mix: str, n: int, window: int, n_live: int):
     return part(0, window), part(window, total), None
 
 
+def _p99_by_bucket(at: list[tuple[int, float]], samples: int) -> list[float | None]:
+    """p99 latency of the reports whose windows ended in each bucket of ``samples`` live samples
+    (10 s of stream): where in the run the late reports were."""
+    if not at:
+        return []
+    buckets: dict[int, list[float]] = {}
+    for k, x in at:
+        buckets.setdefault(k // max(samples, 1), []).append(x)
+    last = max(buckets)
+    return [float(np.percentile(buckets[b], 99)) if b in buckets else None for b in range(last + 1)]
+
+
 def run_throughput(
     loops: int = 1000,
     seconds: float = 120.0,
@@ -267,6 +279,7 @@ def run_throughput(
         "latency_p50_s": float(np.percentile(lat, 50)) if lat.size else None,
         "latency_p99_s": float(np.percentile(lat, 99)) if lat.size else None,
         "latency_p99_after_first_interval_s": float(np.percentile(settled, 99)) if settled.size else None,
+        "latency_p99_by_10s": _p99_by_bucket(at, int(10 * speed)),
         "samples_published": published,
         "samples_ingested": samples_agents,
         # each loop is held by min(agents, 2) agents (its owner and the replica that would inherit it);

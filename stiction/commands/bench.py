@@ -312,6 +312,8 @@ def _throughput(args) -> None:
     settled = f["latency_p99_after_first_interval_s"]
     settled = f"; p99 {settled * 1e3:.0f} ms once every loop has reported" if settled is not None else ""
     print(f"  latency last sample -> report: {lat}{settled}")
+    by = " ".join("-" if x is None else f"{x:.2f}" for x in f["latency_p99_by_10s"])
+    print(f"  p99 by 10 s of stream (s): {by}")
     print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
     killed = f" (agent 0 SIGKILLed at {f['killed_agent_at_s']:.0f} s)" if f["killed_agent_at_s"] is not None else ""
     print(
