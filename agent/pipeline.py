@@ -8,6 +8,10 @@ and ``method`` says which one ``fs_pct``/``fd_pct`` come from:
 1. ``physical`` where the slips read fs and fd to within ``PHYSICAL_MAX_SE_PCT``;
 2. else ``learned``, the cycle ensemble on the INLPCA curve;
 3. else ``thesis``; ``none`` if not even that could run.
+
+All three read the thesis's level loop: where its process is neither declared nor identified
+(``ident.controller``), ``method`` is ``none`` and the headline numbers are null, the learned
+and thesis readings staying in their blocks, and a warning says why.
 """
 
 from __future__ import annotations
@@ -208,13 +212,13 @@ class Quantifier:
                 ("learned", cycle_ok[i], learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]),
                 ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
             ]
-            method, estimate, shown, why_not = _choose(candidates, float(np.ptp(op[i])), verdict.verdict)
+            method, estimate, shown, why_not = _choose(candidates, float(np.ptp(op[i])), verdict.verdict, level[i])
             warnings += why_not
             if verdict.verdict != "stiction" and verdict.verdict != "bad_data":
                 warnings.append(f"no friction numbers: {verdict.verdict.replace('_', ' ')} ({verdict.reason})")
             elif verdict.verdict == "bad_data":
                 warnings.append("no estimate: the data cannot show a valve's friction (above)")
-            elif method == "none":
+            elif method == "none" and level[i]:
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
             report = self._report(
                 w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified
@@ -278,6 +282,11 @@ class Quantifier:
 
 _NOTHING_SHOWN = {"thesis": None, "physical": None, "learned": None}
 NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
+NOT_READ_WARNING = (
+    "S and J not read: the learned models know only the thesis's level loop and this loop's process is "
+    "neither declared nor identified (their readings stay in the 'learned' and 'thesis' blocks; "
+    "stiction diagnose reads S and J under an identified process)"
+)
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"
@@ -341,11 +350,14 @@ def _no_fit(shape: tuple[int, int]) -> inlpca.InlpcaFit:
     )
 
 
-def _choose(candidates, op_range_pct: float, verdict: str):
+def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool = True):
     """The first method whose estimate a valve can have: ``(method, (fs, fd, fs_se, fd_se), shown, warnings)``.
 
     ``shown`` holds each method's block, None where it did not run or is impossible; every block
-    is None unless the verdict is stiction (no friction numbers for a loop without it)."""
+    is None unless the verdict is stiction (no friction numbers for a loop without it).  Without a
+    known process (neither declared nor identified) no block becomes the headline: the learned
+    models and the thesis chain read the thesis's level loop only, and on plant-like loops their
+    S was 5-8 times the truth with a spread that covered it in none (``NOT_READ_WARNING``)."""
     method, chosen = "none", (np.nan, np.nan, np.nan, np.nan)
     shown, warnings = {}, []
     for name, ok, *estimate in candidates:
@@ -353,8 +365,10 @@ def _choose(candidates, op_range_pct: float, verdict: str):
         if why and verdict == "stiction":
             warnings.append(f"{name} estimate withheld: {why}")
         shown[name] = estimate if ok and not why and verdict == "stiction" else None
-        if shown[name] is not None and method == "none":
+        if shown[name] is not None and method == "none" and known_process:
             method, chosen = name, tuple(estimate)
+    if not known_process and verdict == "stiction":
+        warnings.append(NOT_READ_WARNING)
     return method, chosen, shown, warnings
 
 
