@@ -32,12 +32,12 @@ from agent.features import CYCLE_FEATURES, THESIS_WINDOW
 from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
 from agent.window import Reading, Window
 from detect import features
-from detect.features import evidence_rows
 from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
 from ident import controller
 from ident.checks import blocking, data_checks, impossible_friction
 from schemas.report import Estimate, ProcessInfo, StictionReport
+from sim.loop import TS_S
 from sim.process import LOOPS
 from sim.valve import band_and_jump_pct
 
@@ -144,7 +144,7 @@ class Quantifier:
         identified = _canonical_level(op, pv, ts_s, sps, ~declared)
         level = declared | identified
         problems_all = [data_checks(op[i], pv[i]) for i in range(n)]
-        evs = evidence_rows(op, pv, ts_s, sps)
+        evs = features.evidence_rows(op, pv, ts_s, sps)
         verdicts = [
             decide(self.detector, ev, [c.message for c in blocking(problems)])
             for ev, problems in zip(evs, problems_all, strict=True)
@@ -350,7 +350,7 @@ def _no_fit(shape: tuple[int, int]) -> inlpca.InlpcaFit:
     )
 
 
-def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool = True):
+def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool):
     """The first method whose estimate a valve can have: ``(method, (fs, fd, fs_se, fd_se), shown, warnings)``.
 
     ``shown`` holds each method's block, None where it did not run or is impossible; every block
@@ -393,7 +393,7 @@ def _canonical_level(op, pv, ts_s: float, sps, undeclared: np.ndarray) -> np.nda
     read off the record (``ident.controller``); the physical reading then checks the process."""
     out = np.zeros(op.shape[0], bool)
     canonical = LOOPS["level"]
-    if ts_s != 1.0 or not undeclared.any():
+    if ts_s != TS_S or not undeclared.any():
         return out
     idx = np.flatnonzero(undeclared)
     fit = controller.fit_pi(op[idx], pv[idx], ts_s, [sps[i] for i in idx])

@@ -85,12 +85,7 @@ def bench_accuracy(
         thesis_reports, t_thesis = _timed(lambda w=windows, d=thesis_denoises: quantifier.quantify(w, denoise=d))
         reports, t_best = _timed(lambda w=windows: quantifier.quantify(w))
         a = np.array([[x.thesis.fs_pct or np.nan, x.thesis.fd_pct or np.nan] for x in thesis_reports])
-        b = np.array(
-            [
-                [x.fs_pct if x.fs_pct is not None else np.nan, x.fd_pct if x.fd_pct is not None else np.nan]
-                for x in reports
-            ]
-        )
+        b = np.array([[_nan(x.fs_pct), _nan(x.fd_pct)] for x in reports])
         undeclared = [Window(w.loop_id, w.op, w.pv) for w in windows]
         plain, t_plain = _timed(lambda w=undeclared: quantifier.quantify(w))
         c = np.array([[_nan(x.fs_pct), _nan(x.fd_pct)] for x in plain])

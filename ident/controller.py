@@ -41,7 +41,7 @@ def fit_pi(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sps=None) -> PiFit
     """Least-squares ``Kc``, ``Ti`` of each row of ``op``, ``pv`` [W, N]; ``sps``: each row's setpoint,
     or None for a constant one (all rows or that row)."""
     op, pv = np.atleast_2d(np.asarray(op, float)), np.atleast_2d(np.asarray(pv, float))
-    n_win, n = op.shape
+    n_win = op.shape[0]
     sps = [None] * n_win if sps is None else sps
     e = [-p if sp is None else np.asarray(sp, float) - p for p, sp in zip(pv, sps, strict=True)]
     out = np.array([kernels.pi_fit(np.ascontiguousarray(op[w]), np.ascontiguousarray(e[w]), float(ts_s))

@@ -54,6 +54,8 @@ def _no_numbers(r) -> str:
 
 
 def _table(reports, truths, rows: int, elapsed: float, published: int, loops: int) -> str:
+    from agent.pipeline import NOT_IDENTIFIED
+
     lines = [
         f"stiction demo  {elapsed:5.0f} s   {loops} loops   {published} s simulated per loop   "
         f"{len(reports)} loops reported",
@@ -69,7 +71,7 @@ def _table(reports, truths, rows: int, elapsed: float, published: int, loops: in
             lines.append(f"{loop_id:10s} {true:>14s} {'-':>14s} {'':>7s} {'':>9s} {'':>8s}  {why}")
             continue
         err = (abs(r.fs_pct - t.fs_pct) + abs(r.fd_pct - t.fd_pct)) / 2
-        status = "; ".join(w.split(":")[0] for w in r.warnings if "neither declared nor identified" not in w) or "ok"
+        status = "; ".join(w.split(":")[0] for w in r.warnings if w != NOT_IDENTIFIED) or "ok"
         period = f"{r.period_s:8.1f}" if r.period_s else f"{'-':>8s}"
         lines.append(
             f"{loop_id:10s} {true:>14s} {r.fs_pct:6.1f}/{r.fd_pct:5.1f}  {err:7.2f} {r.method:>9s} "

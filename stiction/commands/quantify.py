@@ -54,9 +54,15 @@ def _summary(path: str, r) -> str:
 def _process_line(p) -> str:
     if p.source == "none":
         return "unknown (neither declared with --process nor identified)"
+    from sim.process import LOOPS
+
     how = "declared"
     if p.source == "identified":
-        how = "identified from the record: the thesis's level loop (its PI, Kc 3, Ti 30 s)"
+        pi = LOOPS["level"]
+        how = (
+            f"identified from the record: the thesis's level loop "
+            f"(its PI, Kc {pi.controller_gain:g}, Ti {pi.integral_time_s:g} s)"
+        )
     gain = f", gain {p.gain:.4g} %/s per %" if p.gain is not None and p.kind == "integrating" else ""
     return f"{p.kind.replace('_', '-')}{gain} ({how})"
 
