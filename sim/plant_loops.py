@@ -4,7 +4,7 @@ Flow, pressure and level loops are not the thesis's: a self-regulating or integr
 process of random gain, time constant and dead time, tuned by SIMC (Skogestad 2003), with
 one cause of oscillation or none:
 
-- ``stiction``: the physical valve with a band S of 0.5-5 % of span;
+- ``stiction``: the physical valve with fs 6-60 % of 500 lbf, a band S of 2.5-25 % of span;
 - ``external_oscillation``: a linear valve and a sinusoidal load of 2-15 cycles per window;
 - ``tuning``: a linear valve and a controller 1.5-2.5 times too aggressive for the dead time (runs that
   diverge are dropped by ``stable``: a real loop would saturate and be bad data);
@@ -25,6 +25,7 @@ from sim.disturbance import unit_shape
 from sim.extensions import Extensions
 from sim.loop import LoopSpec, build_batch, external_oscillation, run_batch
 from sim.process import ProcessModel
+from sim.valve import band_and_jump_pct
 
 CLASSES = ("stiction", "external_oscillation", "tuning", "deadband", "quantization", "noise")
 WINDOW_SAMPLES = 600
@@ -87,9 +88,8 @@ def plant_loops(n_per_class: int, seed: int) -> list[PlantLoop]:
             model, dead_time_s = _process(rng, aggressive)
             if cause == "tuning":
                 dead_time_s = max(dead_time_s, 3.0)
-            s_pct = float(rng.uniform(0.5, 5.0)) if cause == "stiction" else 0.0
+            fs = float(rng.uniform(6.0, 60.0)) if cause == "stiction" else 0.0
             j_share = float(rng.uniform(0.1, 0.9))
-            fs = 12.0 * s_pct
             fd = fs * (1 - j_share)
             params: dict = {"dead_time_s": dead_time_s}
             if cause == "external_oscillation":
@@ -108,7 +108,7 @@ def plant_loops(n_per_class: int, seed: int) -> list[PlantLoop]:
             spec = LoopSpec(
                 fs, fd, process=model, extensions=Extensions(**params), seed=int(rng.integers(2**31)), sp_pct=50.0
             )
-            j_pct = s_pct * j_share if cause == "stiction" else 0.0
+            s_pct, j_pct = (float(v) for v in band_and_jump_pct(fs, fd))
             steps = int(rng.integers(0, 4)) if rng.random() < 0.5 else 0
             sp_steps = tuple(
                 (float(rng.uniform(0.05, 0.95)), float(rng.choice([-1, 1]) * rng.uniform(1.0, 5.0)))
