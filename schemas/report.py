@@ -28,6 +28,7 @@ class ProcessInfo(BaseModel):
     time_constant_s: float | None = None
     dead_time_s: float | None = None
     sample_time_s: float
+    description: str | None = Field(None, description="the identified model in words, where one was identified")
 
 
 class Estimate(BaseModel):
@@ -79,9 +80,10 @@ class StictionReport(BaseModel):
     fd_se_pct: float | None = Field(description="uncertainty (one standard error) of fd_pct")
     period_s: float | None = Field(description="oscillation period from the autocorrelation function")
     denoised: bool = Field(description="the INLPCA denoiser ran on this window")
-    method: Literal["physical", "learned", "thesis", "none"] = Field(
+    method: Literal["physical", "learned", "thesis", "identified", "none"] = Field(
         description="which estimate fs_pct/fd_pct come from: the physical reading of the slips, the learned "
-        "cycle predictor, the thesis chain, or none"
+        "cycle predictor, the thesis chain, the fit under the process identified from the record "
+        "(stiction quantify), or none"
     )
     thesis: Estimate = Field(description="the thesis chain's estimate (ACF, INLPCA, 100-sample OP MLP)")
     physical: Estimate | None = Field(

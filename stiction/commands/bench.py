@@ -82,6 +82,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--loops", type=int, default=40, help="simulated plant-like loops per class")
     t.add_argument("--seed", type=int, default=2026)
     t.add_argument("--json", action="store_true")
+    z = sub.add_parser("sizing", help="S and J on simulated plant-like sticky loops, as quantify reports them")
+    z.add_argument("--loops", type=int, default=60, help="simulated plant-like loops per class (the sticky ones run)")
+    z.add_argument("--seed", type=int, default=2030, help="2026 and 2027 chose the model error (ident.sizing)")
+    z.add_argument("--workers", type=int, default=2)
+    z.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
     a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
@@ -136,7 +141,21 @@ def run(args: argparse.Namespace) -> int:
         _measured(args)
     elif args.bench == "detect":
         _detect(args)
+    elif args.bench == "sizing":
+        _sizing(args)
     return 0
+
+
+def _sizing(args) -> None:
+    from bench.sizing import bench_sizing, print_table
+
+    if args.loops < 1 or args.workers < 1:
+        raise InputError(f"--loops {args.loops} --workers {args.workers}: need at least 1 each")
+    figures = bench_sizing(args.loops, args.seed, args.workers) | {"host": _machine()}
+    if args.json:
+        _print_json(figures)
+    else:
+        print_table(figures)
 
 
 def _detect(args) -> None:

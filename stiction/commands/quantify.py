@@ -21,6 +21,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the loop is the canonical level loop (spec/thesis-loop.md): "
         "read fs and fd from its slips where the data allow",
     )
+    p.add_argument(
+        "--no-identify",
+        action="store_true",
+        help="skip identifying the process of loops called sticky (seconds each): their S and J then stay null "
+        "unless --process is given",
+    )
     p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
     p.add_argument(
         "--rank",
@@ -57,6 +63,8 @@ def _process_line(p) -> str:
     from sim.process import LOOPS
 
     how = "declared"
+    if p.source == "identified" and p.description:
+        return f"{p.description} (identified from OP and PV)"
     if p.source == "identified":
         pi = LOOPS["level"]
         how = (
@@ -94,9 +102,9 @@ def run(args: argparse.Namespace) -> int:
                 sp=export.sp,
             )
             if args.plot:  # the plot draws the INLPCA curve: fit it on every window
-                report, details = quantifier.quantify_with_details([window])[0]
+                report, details = quantifier.quantify_with_details([window], identify=not args.no_identify)[0]
             else:
-                report, details = quantifier.quantify([window])[0], None
+                report, details = quantifier.quantify([window], identify=not args.no_identify)[0], None
             if export.warnings:
                 report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
         except StictionError as e:  # one bad file never stops the others

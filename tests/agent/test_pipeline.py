@@ -246,3 +246,31 @@ def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers
         assert NOT_READ_WARNING in rep.warnings
     # the learned models did read them (thesis-loop numbers, kept in their block for reference only)
     assert any(rep.learned.fs_pct is not None for rep in sticky)
+
+
+def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_process(quantifier, cases):
+    from agent.pipeline import NOT_READ_WARNING
+    from sim.plant_loops import plant_loops, simulate_plant, stable
+
+    loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
+    kept = [(loop, r) for loop, r in zip(loops, simulate_plant(loops), strict=True) if stable(r[0], r[1])]
+    windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (_, (op, pv, sp, ts_s)) in enumerate(kept)]
+    reports = quantifier.quantify(windows, identify=True)
+    sticky = [(loop, rep) for (loop, _), rep in zip(kept, reports, strict=True) if rep.verdict == "stiction"]
+    sized = [(loop, rep) for loop, rep in sticky if rep.method == "identified"]
+    assert len(sized) >= 2
+    for _, rep in sticky:
+        assert NOT_READ_WARNING not in rep.warnings
+        assert rep.process.source == "identified" and rep.process.description
+        if rep.method != "identified":
+            assert rep.s_pct is None
+            assert any(w.startswith("S and J not read under the identified") for w in rep.warnings)
+    for loop, rep in sized:
+        assert abs(rep.s_pct - loop.s_pct) <= 2 * rep.s_se_pct and abs(rep.j_pct - loop.j_pct) <= 2 * rep.j_se_pct
+        assert rep.fs_pct == pytest.approx(rep.s_pct * 2.4)
+    # loops not called sticky are not identified; the thesis's loop keeps its own reading
+    others = [rep for rep in reports if rep.verdict != "stiction"]
+    assert all(rep.process.source == "none" for rep in others)
+    specs, r = cases
+    plain = [Window(name, r.op[i], r.pv[i]) for i, name in enumerate(specs)]
+    assert quantifier.quantify(plain, identify=True) == quantifier.quantify(plain)
