@@ -67,6 +67,8 @@ class Details:
 
     curve: np.ndarray  # [M, 2] the INLPCA curve, (op, pv), closed
     denoised: np.ndarray  # [N, 2] each sample's projection onto the curve
+    model_pv: np.ndarray | None = None
+    """[K] PV as the identified process and valve simulate it from OP, the window's last K samples (or None)."""
 
 
 def _opt(x) -> float | None:
@@ -188,6 +190,7 @@ class Quantifier:
             & (phys.slips <= slip_limit)
         )
         results: list[Result] = []
+        model_pv: dict[int, np.ndarray] = {}
         for i, w in enumerate(windows):
             problems, ev, verdict = problems_all[i], evs[i], verdicts[i]
             if physical_ok[i] and verdict.verdict in ("other_cause", "no_oscillation"):
@@ -204,6 +207,8 @@ class Quantifier:
             sizing = None
             if identify and verdict.verdict == "stiction" and not level[i] and not (carried[i] or deferred[i]):
                 sizing = _size(op[i], pv[i], ts_s, w.loop_id)
+                if sizing.model_pv_pct is not None:
+                    model_pv[i] = sizing.model_pv_pct
             if not level[i]:
                 warnings.append(NOT_IDENTIFIED if sizing is None else _identified_warning(sizing))
             if carried[i] or deferred[i]:
@@ -241,7 +246,9 @@ class Quantifier:
             results.append(Result(report, None, reading))
         if not details:
             return results
-        return [r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)]
+        return [
+            r._replace(details=Details(curves[i], a.fit.denoised[i], model_pv.get(i))) for i, r in enumerate(results)
+        ]
 
     def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s,
                 identified, sizing):  # fmt: skip

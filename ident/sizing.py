@@ -21,7 +21,7 @@ process gain) 94 % and 84 % with ``MODEL_ERROR_J`` 0.30.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -46,6 +46,8 @@ class Sizing:
     process: Process | None
     slips: int
     why: str | None = None
+    model_pv_pct: np.ndarray | None = field(default=None, repr=False, compare=False)
+    """PV as the identified model simulates it from the record's OP (its last samples), for plots."""
 
     @property
     def read(self) -> bool:
@@ -60,10 +62,11 @@ class Sizing:
 
 def size(op_pct: np.ndarray, pv_pct: np.ndarray, ts_s: float, name: str = "loop") -> Sizing:
     """Diagnose the record and read S and J with the model error added (seconds of CPU a loop)."""
+    from ident.fit import simulated_pv
     from ident.report import diagnose_loop
 
-    report, _, _ = diagnose_loop(name, np.asarray(op_pct, float), np.asarray(pv_pct, float), ts_s)
-    return from_report(report)
+    report, record, d = diagnose_loop(name, np.asarray(op_pct, float), np.asarray(pv_pct, float), ts_s)
+    return replace(from_report(report), model_pv_pct=simulated_pv(d.extended.fit, record))
 
 
 def from_report(report) -> Sizing:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -10,9 +11,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+TITLE_WIDTH = 150
+"""Characters per title line at the plots' size."""
+TITLE_LINE_IN = 0.2
+
 
 def _title(report) -> str:
-    """The verdict first, then S and J with their uncertainty, then every warning (one line each)."""
+    """The verdict first, then S and J with their uncertainty, then every warning, wrapped whole."""
     p = "" if report.stiction_probability is None else f" (p {report.stiction_probability:.2f})"
     cause = f", likely {report.likely_cause}" if report.verdict == "other_cause" and report.likely_cause else ""
     head = f"{report.loop_id}: {report.verdict.replace('_', ' ')}{cause}{p}"
@@ -23,13 +28,19 @@ def _title(report) -> str:
             f"; S {report.s_pct:.2f}{s_se} %, J {report.j_pct:.2f}{j_se} % of span"
             f" (fs {report.fs_pct:.1f}, fd {report.fd_pct:.1f} % of 500 lbf; {report.method})"
         )
-    return "\n".join([head, *(w[:110] for w in report.warnings)])
+    lines = [head]
+    for w in report.warnings:  # wrapped, never cut: a warning is read whole
+        lines += textwrap.wrap(w, TITLE_WIDTH, subsequent_indent="    ")
+    return "\n".join(lines)
 
 
 def plot_loop(out: Path, window, report, details) -> Path:
     """OP and PV over time; the OP-PV curve before and after denoising; the estimate in the title."""
     t = (window.t_end_s or 0.0) - window.ts_s * np.arange(len(window.op))[::-1]
-    fig, (ax_t, ax_c) = plt.subplots(1, 2, figsize=(13, 4.5), gridspec_kw={"width_ratios": [1.6, 1]})
+    title = _title(report)
+    title_in = TITLE_LINE_IN * (title.count("\n") + 1) + 0.1
+    height_in = 4.2 + title_in
+    fig, (ax_t, ax_c) = plt.subplots(1, 2, figsize=(13, height_in), gridspec_kw={"width_ratios": [1.6, 1]})
     ax_t.plot(t, window.op, lw=0.9, color="tab:blue", label="OP")
     ax_t.set_xlabel("time, s")
     ax_t.set_ylabel("OP, percent", color="tab:blue")
@@ -37,9 +48,12 @@ def plot_loop(out: Path, window, report, details) -> Path:
     ax_pv.plot(t, window.pv, lw=0.9, color="tab:orange", label="PV")
     if getattr(window, "sp", None) is not None:
         ax_pv.plot(t, window.sp, lw=0.8, ls="--", color="0.3", label="SP")
+    model_pv = getattr(details, "model_pv", None) if details is not None else None
+    if model_pv is not None:
+        ax_pv.plot(t[-len(model_pv) :], model_pv, lw=1.0, color="tab:green", label="PV, identified model from OP")
     ax_pv.set_ylabel("PV, percent", color="tab:orange")
     handles = ax_t.get_legend_handles_labels()[0] + ax_pv.get_legend_handles_labels()[0]
-    ax_t.legend(handles=handles, loc="upper right")
+    ax_t.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(handles), fontsize=8)
     ax_c.plot(window.op, window.pv, ".", ms=2.5, color="0.6", label="measured")
     ax_c.plot(
         details.denoised[:, 0],
@@ -53,8 +67,8 @@ def plot_loop(out: Path, window, report, details) -> Path:
     ax_c.set_xlabel("OP, percent")
     ax_c.set_ylabel("PV")
     ax_c.legend(loc="best", fontsize=8)
-    fig.suptitle(_title(report), fontsize=10)
-    fig.tight_layout()
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()  # makes room for the suptitle (matplotlib >= 3.3)
     fig.savefig(out, dpi=90)
     plt.close(fig)
     return out

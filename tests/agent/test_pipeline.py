@@ -274,3 +274,22 @@ def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_pro
     specs, r = cases
     plain = [Window(name, r.op[i], r.pv[i]) for i, name in enumerate(specs)]
     assert quantifier.quantify(plain, identify=True) == quantifier.quantify(plain)
+
+
+def test_the_identified_models_pv_comes_with_the_details_and_follows_the_measured_pv(quantifier):
+    from sim.plant_loops import plant_loops, simulate_plant, stable
+
+    loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
+    windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in
+               enumerate(simulate_plant(loops)) if stable(op, pv)]  # fmt: skip
+    pairs = quantifier.quantify_with_details(windows, identify=True)
+    drawn = 0
+    for w, (rep, details) in zip(windows, pairs, strict=True):
+        if rep.method != "identified":
+            continue
+        pv = np.asarray(w.pv)[-details.model_pv.size :]
+        assert details.model_pv.size >= 100
+        assert np.std(pv - details.model_pv) < 0.5 * np.std(pv)  # the model explains most of what PV did
+        drawn += 1
+    assert drawn >= 1
+    assert all(d.model_pv is None for r, d in pairs if r.process.source == "none")

@@ -1,0 +1,40 @@
+"""The plots a plant engineer reads: every warning whole in the title, the identified model drawn."""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from stiction.plots import TITLE_WIDTH, _title, plot_loop
+
+
+def _report(warnings):
+    return SimpleNamespace(
+        loop_id="FIC1", verdict="stiction", likely_cause="stiction", stiction_probability=0.9, s_pct=2.0,
+        s_se_pct=0.4, j_pct=0.5, j_se_pct=0.6, fs_pct=4.8, fd_pct=3.6, method="identified", warnings=warnings,
+    )  # fmt: skip
+
+
+def test_a_long_warning_is_wrapped_not_cut():
+    long = "process identified from OP and PV (stiction diagnose): " + "first order, T 9.2 s; " * 20 + "THE END"
+    title = _title(_report([long, "short one"]))
+    lines = title.splitlines()
+    assert all(len(line) <= TITLE_WIDTH for line in lines[1:])
+    assert "THE END" in title and "short one" in lines[-1]
+    assert " ".join(line.strip() for line in lines[1:-1]) == long
+
+
+def test_the_identified_models_pv_is_drawn_and_the_title_fits(tmp_path):
+    import matplotlib.image as mpimg
+
+    n = 600
+    t = np.arange(n, dtype=float)
+    op = 50 + 5 * np.sign(np.sin(t / 40))
+    pv = 50 + np.sin(t / 40)
+    details = SimpleNamespace(curve=np.c_[op[:50], pv[:50]], denoised=np.c_[op, pv], model_pv=pv[-400:] + 0.1)
+    window = SimpleNamespace(op=op, pv=pv, ts_s=1.0, t_end_s=float(n), sp=None)
+    short = plot_loop(tmp_path / "a.png", window, _report([]), details)
+    tall = plot_loop(tmp_path / "b.png", window, _report(["w " * 400]), details)
+    a, b = mpimg.imread(short), mpimg.imread(tall)
+    assert b.shape[0] > a.shape[0]  # room for every title line
+    green = (a[..., 1] > 0.4) & (a[..., 0] < 0.3) & (a[..., 2] < 0.3)  # tab:green, the model's PV
+    assert green.sum() > 200
