@@ -29,6 +29,7 @@ from agent import inlpca, physical
 from agent.acf import acf_period
 from agent.analysis import WindowAnalysis, analyse
 from agent.features import CYCLE_FEATURES, THESIS_WINDOW
+from agent.identified import NOT_IDENTIFIED, NOT_READ_WARNING, size_safely, with_sizing
 from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
 from agent.window import Reading, Window
 from detect import features
@@ -206,15 +207,15 @@ class Quantifier:
                 warnings.append(f"{w.interpolated} samples interpolated across gaps in the stream")
             sizing = None
             if identify and verdict.verdict == "stiction" and not level[i] and not (carried[i] or deferred[i]):
-                sizing = _size(op[i], pv[i], ts_s, w.loop_id)
+                sizing = size_safely(op[i], pv[i], ts_s, w.loop_id)
                 if sizing.model_pv_pct is not None:
                     model_pv[i] = sizing.model_pv_pct
             if not level[i]:
-                warnings.append(NOT_IDENTIFIED if sizing is None else _identified_warning(sizing))
+                warnings.append(NOT_IDENTIFIED)
             if carried[i] or deferred[i]:
                 extra = list(w.carry.warnings) if carried[i] else [DEFERRED_WARNING]
                 report = self._report(w, i, a, use, "none", (np.nan,) * 4, _NOTHING_SHOWN, verdict, ev, problems,
-                                      warnings + extra, ood, level, ts_s, identified, None)  # fmt: skip
+                                      warnings + extra, ood, level, ts_s, identified)  # fmt: skip
                 if carried[i]:
                     report = report.model_copy(update=w.carry.fields)
                 results.append(Result(report, None, None))
@@ -227,9 +228,7 @@ class Quantifier:
                 ("learned", cycle_ok[i], learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]),
                 ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
             ]
-            method, estimate, shown, why_not = _choose(
-                candidates, float(np.ptp(op[i])), verdict.verdict, level[i], sizing
-            )
+            method, estimate, shown, why_not = _choose(candidates, float(np.ptp(op[i])), verdict.verdict, level[i])
             warnings += why_not
             if verdict.verdict != "stiction" and verdict.verdict != "bad_data":
                 warnings.append(f"no friction numbers: {verdict.verdict.replace('_', ' ')} ({verdict.reason})")
@@ -237,8 +236,11 @@ class Quantifier:
                 warnings.append("no estimate: the data cannot show a valve's friction (above)")
             elif method == "none" and level[i]:
                 warnings.append("no estimate: no oscillation period found, or every reading withheld")
-            report = self._report(w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level,
-                                  ts_s, identified, sizing)  # fmt: skip
+            report = self._report(
+                w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified
+            )
+            if sizing is not None:
+                report = with_sizing(report, sizing, w.t_end_s)
             reading = None
             if verdict.verdict == "stiction":
                 fields = {k: getattr(report, k) for k in READING_FIELDS}
@@ -250,14 +252,13 @@ class Quantifier:
             r._replace(details=Details(curves[i], a.fit.denoised[i], model_pv.get(i))) for i, r in enumerate(results)
         ]
 
-    def _report(self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s,
-                identified, sizing):  # fmt: skip
+    def _report(
+        self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified
+    ):
         """Assembly only: the numbers chosen above, as the report's fields."""
         fs, fd, fs_se, fd_se = (_opt(v) for v in estimate)
         s_pct = j_pct = s_se = j_se = None
-        if method == "identified":
-            s_pct, j_pct, s_se, j_se = (_opt(v) for v in (sizing.s_pct, sizing.j_pct, sizing.s_se_pct, sizing.j_se_pct))
-        elif fs is not None and fd is not None:
+        if fs is not None and fd is not None:
             s_pct, j_pct = (_opt(v) for v in band_and_jump_pct(fs, fd))
             if fs_se is not None:
                 s_se = _opt(band_and_jump_pct(fs_se, 0.0)[0])
@@ -271,7 +272,7 @@ class Quantifier:
             regularity=_opt(ev.oscillation.regularity),
             amplitude_pct=_opt(ev.oscillation.amplitude_pct),
             checks=[c.name for c in problems],
-            process=_process(w, ts_s, bool(identified[i]), sizing),
+            process=_process(w, ts_s, bool(identified[i])),
             fs_pct=fs,
             fd_pct=fd,
             s_pct=s_pct,
@@ -300,12 +301,6 @@ class Quantifier:
 
 
 _NOTHING_SHOWN = {"thesis": None, "physical": None, "learned": None}
-NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
-NOT_READ_WARNING = (
-    "S and J not read: the learned models know only the thesis's level loop and this loop's process is "
-    "neither declared nor identified (their readings stay in the 'learned' and 'thesis' blocks; "
-    "stiction diagnose reads S and J under an identified process)"
-)
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"
@@ -369,16 +364,15 @@ def _no_fit(shape: tuple[int, int]) -> inlpca.InlpcaFit:
     )
 
 
-def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool, sizing=None):
+def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool):
     """The first method whose estimate a valve can have: ``(method, (fs, fd, fs_se, fd_se), shown, warnings)``.
 
     ``shown`` holds each method's block, None where it did not run or is impossible; every block
     is None unless the verdict is stiction (no friction numbers for a loop without it).  Without a
     known process no block becomes the headline: the learned models and the thesis chain read the
     thesis's level loop only (on simulated plant-like loops their S was 26-47 % off in median,
-    inside S +- 2 spread in 60-67 %: ``stiction bench sizing``).  There the sizing under the
-    identified process (``ident.sizing``) is the headline where it was made and could read S and J,
-    and ``NOT_READ_WARNING`` or its reason otherwise."""
+    inside S +- 2 spread in 60-67 %: ``stiction bench sizing``): ``NOT_READ_WARNING``, until a sizing
+    under the identified process replaces it (``agent.identified.with_sizing``)."""
     method, chosen = "none", (np.nan, np.nan, np.nan, np.nan)
     shown, warnings = {}, []
     for name, ok, *estimate in candidates:
@@ -389,12 +383,7 @@ def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool, 
         if shown[name] is not None and method == "none" and known_process:
             method, chosen = name, tuple(estimate)
     if not known_process and verdict == "stiction":
-        if sizing is None:
-            warnings.append(NOT_READ_WARNING)
-        elif sizing.read:
-            method, chosen = "identified", sizing.fs_fd_pct()
-        else:
-            warnings.append(f"S and J not read under the identified process: {sizing.why}")
+        warnings.append(NOT_READ_WARNING)
     return method, chosen, shown, warnings
 
 
@@ -407,40 +396,12 @@ def warm_up() -> None:
     controller.fit_pi(np.sin(t / 5)[None], np.cos(t / 5)[None])
 
 
-def _process(w: Window, ts_s: float, identified: bool, sizing=None) -> ProcessInfo:
+def _process(w: Window, ts_s: float, identified: bool) -> ProcessInfo:
     if w.process == "level" or identified:
         source = "declared" if w.process == "level" else "identified"
         return ProcessInfo(kind="integrating", source=source, gain=LOOPS["level"].gain, sample_time_s=ts_s)
-    p = sizing.process if sizing is not None else None
-    if p is not None:
-        return ProcessInfo(
-            kind=p.kind, source="identified", gain=p.gain, time_constant_s=p.time_constant_s,
-            dead_time_s=p.dead_time_s, sample_time_s=ts_s, description=p.description,
-        )  # fmt: skip
     return ProcessInfo(kind="unknown", source="none", sample_time_s=ts_s)
 
-
-def _size(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str):
-    """``ident.sizing.size``, a failure of the identification becoming the reason nothing was read."""
-    from ident.sizing import Sizing, size
-    from schemas.errors import StictionError
-
-    try:
-        return size(op, pv, ts_s, loop_id)
-    except (StictionError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
-        nan = float("nan")
-        return Sizing(nan, nan, nan, nan, None, 0, f"the process could not be identified ({e})")
-
-
-def _identified_warning(sizing) -> str:
-    if sizing.process is None:
-        return NOT_IDENTIFIED
-    if not sizing.read:
-        return f"process identified from OP and PV (stiction diagnose): {sizing.process.description}"
-    return (
-        f"process identified from OP and PV (stiction diagnose): {sizing.process.description}; S and J are "
-        "read under it, their uncertainty including the model error measured on simulated plant-like loops"
-    )
 
 
 def _canonical_level(op, pv, ts_s: float, sps, undeclared: np.ndarray) -> np.ndarray:

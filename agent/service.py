@@ -10,17 +10,24 @@ with it which loops are this agent's.
 from __future__ import annotations
 
 import logging
+import multiprocessing
 import threading
 import time
 from collections import deque
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from agent.core import AgentCore, CoreSettings
+from agent.identified import lower_priority, size_in_worker
 from agent.pipeline import Quantifier, warm_up
+from agent.sizing_plan import SizingPlan
 from schemas import keys
 from schemas.errors import StictionError
 from schemas.messages import AgentHealth, LoopTruth
+from schemas.report import StictionReport
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +56,9 @@ class AgentSettings:
     """A new loop's first (partial) report once it holds this many samples."""
     estimate_every: int = 5
     """Reports of a loop still called sticky between fresh friction readings (``CoreSettings``)."""
+    size_every_s: float = 3600.0
+    """A loop called sticky whose process is unknown has it identified and S and J read under it once
+    in this long, on a worker process of lowered priority (``agent.sizing_plan``); 0: never."""
 
 
 class AgentService:
@@ -84,6 +94,9 @@ class AgentService:
         self.sink = sink  # optional viewer: log_report(report, window, details, truth)
         self.truths: dict[str, tuple[float, float]] = {}
         self.sink_errors = 0
+        self.sizing = SizingPlan(settings.size_every_s) if settings.size_every_s > 0 else None
+        self._size_pool = None
+        self._sizings: dict = {}  # future -> (loop_id, t_end_s)
 
     # zenoh callbacks: keep them tiny ------------------------------------------------------------
     def _on_sample(self, sample) -> None:
@@ -144,6 +157,9 @@ class AgentService:
         for d in reversed(self._declared):
             d.undeclare()
         self._declared = []
+        if self._size_pool is not None:
+            self._size_pool.shutdown(wait=False, cancel_futures=True)
+            self._size_pool = None
 
     def run(self, stop: threading.Event) -> None:
         while not stop.is_set():
@@ -160,6 +176,7 @@ class AgentService:
         with self._alive_lock:
             alive = set(self._alive)
         self.core.set_agents(alive)
+        self._collect_sizings()
         while self._reports_seen:  # before any window is due: a report made elsewhere is never made twice
             self.core.seen_report(*self._reports_seen.popleft())
         n = 0
@@ -205,6 +222,10 @@ class AgentService:
             report, details = result.report, result.details
             self.core.reported(w.loop_id, report.verdict, result.reading)
             report = report.model_copy(update={"agent_id": self.settings.agent_id})
+            if self.sizing is not None:
+                if self.sizing.wanted(report, time.monotonic()):
+                    self._size(w)
+                report = self.sizing.apply(report)
             payload = report.model_dump_json().encode()
             self.latest[w.loop_id] = payload
             self.session.put(keys.report(self.settings.prefix, w.loop_id), payload, **put_kw)
@@ -217,6 +238,39 @@ class AgentService:
                     if self.sink_errors == 1:
                         log.exception("rerun sink failed; reports go on without it")
         self.core.completed(len(arrivals), arrivals, time.monotonic())
+
+    # background sizing ---------------------------------------------------------------------------
+    def _size(self, w) -> None:
+        """Identify the loop's process and read S and J under it on the worker (copies: the window's
+        arrays are views of the rolling buffer, and the pool pickles them later)."""
+        if self._size_pool is None:
+            ctx = multiprocessing.get_context("spawn")  # never fork a process that runs Zenoh's threads
+            self._size_pool = ProcessPoolExecutor(1, mp_context=ctx, initializer=lower_priority)
+        future = self._size_pool.submit(size_in_worker, np.array(w.op), np.array(w.pv), float(w.ts_s), w.loop_id)
+        self._sizings[future] = (w.loop_id, w.t_end_s)
+        self.sizing.started(w.loop_id)
+
+    def _collect_sizings(self) -> None:
+        """Sizings that came back: kept for the loop's next reports, and its latest report published
+        again with them at once (a dashboard need not wait for the next window)."""
+        for future in [f for f in self._sizings if f.done()]:
+            loop_id, t_end_s = self._sizings.pop(future)
+            try:
+                sizing = future.result()
+            except Exception:  # a worker that died or failed costs this sizing only
+                log.exception("background sizing of %s failed", loop_id)
+                sizing = None
+            self.sizing.finished(loop_id, sizing, t_end_s, time.monotonic())
+            payload = self.latest.get(loop_id)
+            if payload is None or not self.core.owns(loop_id):
+                continue
+            report = StictionReport.model_validate_json(payload)
+            sized = self.sizing.apply(report)
+            if sized is not report:
+                payload = sized.model_dump_json().encode()
+                self.latest[loop_id] = payload
+                self.session.put(keys.report(self.settings.prefix, loop_id), payload,
+                                 encoding=self._zenoh.Encoding.APPLICATION_JSON)  # fmt: skip
 
     def health(self, advance_rates: bool = False) -> AgentHealth:
         """The counters; rates are over the time since the last published health message."""
@@ -244,6 +298,7 @@ class AgentService:
             gaps_filled=self.core.gaps_filled,
             samples_filled=self.core.samples_filled,
             readings_deferred=self.core.readings_deferred,
+            loops_sized=self.sizing.done if self.sizing is not None else 0,
         )
 
     def publish_health(self) -> AgentHealth:

@@ -83,6 +83,9 @@ class AgentHealth(BaseModel):
         description="reports of sticky loops whose friction reading was put off to a coming report (the agent "
         "rations readings while it catches up: a cold start of many loops, a take-over)",
     )
+    loops_sized: int = Field(
+        0, description="background sizings done: sticky loops of unknown process identified and S, J read under it"
+    )
 
 
 class BridgeHealth(BaseModel):

@@ -35,6 +35,7 @@ def agent_line(h) -> str:
         f"agent {h.agent_id}: {h.loops_seen} loops ({h.loops_owned} owned, {len(h.agents_alive)} agent(s) alive), "
         f"{rates}, {h.reports} reports, p99 latency {p99}, rejected: {_counts(h.rejected)}"
         + (f", friction readings put off: {h.readings_deferred}" if h.readings_deferred else "")
+        + (f", sticky loops sized under their identified process: {h.loops_sized}" if h.loops_sized else "")
     )
 
 

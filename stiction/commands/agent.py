@@ -35,6 +35,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="reports of a loop still called sticky between fresh friction readings; the reports between carry "
         "the last one, with estimate_t_end_s (default 5; 1: every report). Verdicts are read from every window",
     )
+    p.add_argument(
+        "--size-every",
+        type=float,
+        default=60.0,
+        metavar="MINUTES",
+        help="a loop called sticky whose process is unknown has it identified and S and J read under it, in the "
+        "background on one worker of lowered priority, once in this many minutes (default 60; 0: never)",
+    )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")
     zenoh_config.add_arguments(p)
@@ -60,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
 
     from agent.service import AgentService, AgentSettings
 
+    if args.size_every < 0:
+        raise InputError(f"--size-every {args.size_every:g}: minutes, at least 0 (0: never)")
     if args.window < 100 or args.first_window < 100 or args.report_every < 1 or args.estimate_every < 1:
         raise InputError(
             "--window and --first-window must be at least 100 samples, --report-every and --estimate-every at least 1"
@@ -75,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
         report_every_samples=args.report_every,
         first_report_samples=args.first_window,
         estimate_every=args.estimate_every,
+        size_every_s=60.0 * args.size_every,
         models_dir=args.models,
     )
     log.info("settings: %s", settings)

@@ -1,0 +1,63 @@
+"""The agent's background sizing plan (pure): who is sized when, and what their reports carry."""
+
+import math
+
+from agent.identified import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING
+from agent.sizing_plan import NOTE, SizingPlan
+from ident.sizing import Sizing
+from schemas.diagnosis import Process
+from schemas.report import Estimate, ProcessInfo, StictionReport
+
+PROCESS = Process(kind="self_regulating", gain=0.8, gain_se=0.05, time_constant_s=12.0, dead_time_s=2.0,
+                  sensor_tau_s=0.0, actuator_tau_s=0.0, sample_time_s=1.0,
+                  description="first order, T 12 s, dead time 2 s, gain 0.8 % per %")  # fmt: skip
+
+
+def _report(loop_id="L1", verdict="stiction", source="none"):
+    none = Estimate(fs_pct=None, fd_pct=None)
+    kind = "unknown" if source == "none" else "integrating"
+    return StictionReport(
+        loop_id=loop_id, verdict=verdict, stiction_probability=0.9, likely_cause="stiction", regularity=2.0,
+        amplitude_pct=1.0, process=ProcessInfo(kind=kind, source=source, sample_time_s=1.0), fs_pct=None,
+        fd_pct=None, s_pct=None, j_pct=None, s_se_pct=None, j_se_pct=None, fs_se_pct=None, fd_se_pct=None,
+        period_s=100.0, denoised=False, method="none", thesis=none, physical=None, learned=none, ood_score=None,
+        explained=None, oscillating=True, warnings=[NOT_IDENTIFIED, NOT_READ_WARNING], model_version="test",
+        n_samples=1000,
+    )  # fmt: skip
+
+
+def test_only_sticky_loops_of_unknown_process_are_sized_one_at_a_time_and_again_after_the_refresh():
+    plan = SizingPlan(refresh_s=600.0)
+    assert not plan.wanted(_report(verdict="no_oscillation"), 0.0)
+    assert not plan.wanted(_report(source="declared"), 0.0)
+    assert plan.wanted(_report("L1"), 0.0)
+    plan.started("L1")
+    assert not plan.wanted(_report("L1"), 1.0) and not plan.wanted(_report("L2"), 1.0)  # one in flight at most
+    plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 900.0, now_s=10.0)
+    assert plan.wanted(_report("L2"), 11.0)
+    assert not plan.wanted(_report("L1"), 600.0) and plan.wanted(_report("L1"), 610.0)
+
+
+def test_a_sized_loops_reports_carry_its_process_and_numbers_in_place_of_the_warnings():
+    plan = SizingPlan(refresh_s=600.0)
+    plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 900.0, now_s=0.0)
+    r = plan.apply(_report("L1"))
+    assert r.method == "identified" and r.s_pct == 2.0 and r.j_se_pct == 0.6 and r.estimate_t_end_s == 900.0
+    assert r.fs_pct == 4.8 and math.isclose(r.fd_pct, 3.6)  # 12 lbf per % of span, 5 lbf per % of 500 lbf
+    assert r.process.source == "identified" and r.process.time_constant_s == 12.0 and r.process.description
+    assert NOT_READ_WARNING not in r.warnings and NOT_IDENTIFIED not in r.warnings and NOTE in r.warnings
+    # the same sizing never decorates a report that is not sticky, or whose process is known
+    assert plan.apply(_report("L1", verdict="other_cause")).method == "none"
+    assert plan.apply(_report("L1", source="declared")).process.source == "declared"
+    assert plan.apply(_report("L2")) == _report("L2")
+
+
+def test_a_sizing_that_read_nothing_says_why_and_a_failed_one_changes_nothing():
+    plan = SizingPlan(refresh_s=600.0)
+    nan = float("nan")
+    plan.finished("L1", Sizing(nan, nan, nan, nan, PROCESS, 1, "1 slip(s) read in the record"), 5.0, now_s=0.0)
+    r = plan.apply(_report("L1"))
+    assert r.method == "none" and r.s_pct is None and r.process.source == "identified"
+    assert NOT_READ_PREFIX + "1 slip(s) read in the record" in r.warnings
+    plan.finished("L2", None, 5.0, now_s=0.0)  # the worker failed
+    assert plan.apply(_report("L2")) == _report("L2") and plan.done == 2

@@ -1,0 +1,67 @@
+"""The agent sizes a sticky loop of unknown process in the background, as a user runs it: a replayed
+plant window called sticky gets its process identified and S and J published, the agent's own
+reports never waiting for it."""
+
+import shutil
+import signal
+import threading
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from schemas import keys
+from schemas.report import StictionReport
+from stiction import zenoh_config
+from tests.integration.conftest import start_cli, wait_until
+
+PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+PREFIX = "test/sizing"
+
+
+def test_a_replayed_sticky_plant_window_gets_its_process_identified_and_s_and_j_published(tmp_path):
+    files = sorted(PLANT.glob("stic_2411FIC20102_1016_*.csv")) if PLANT.is_dir() else []
+    if not files:
+        pytest.skip(f"the measured plant data is not at {PLANT}")
+    shutil.copy(files[0], tmp_path / "fic.csv")
+    endpoint = zenoh_config.free_loopback_endpoint()
+    reports: list[StictionReport] = []
+    lock = threading.Lock()
+
+    def on_report(sample):
+        with lock:
+            reports.append(StictionReport.model_validate_json(sample.payload.to_bytes()))
+
+    procs = {}
+    with zenoh.open(zenoh_config.build([endpoint])) as session:
+        sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
+        try:
+            common = ["--prefix", PREFIX, "--connect", endpoint]
+            procs["agent"] = start_cli("agent", "--first-window", "700", "--report-every", "50", "--size-every", "1",
+                                       *common, "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+            wait_until(
+                lambda: any(r.ok for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)), 30, "agent"
+            )
+            procs["replay"] = start_cli("replay", str(tmp_path), "--speed", "2000", "--rate", "4", *common,
+                                        "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+            assert procs["replay"].wait(timeout=60) == 0
+
+            def sized():
+                with lock:
+                    return [r for r in reports if r.method == "identified"]
+
+            wait_until(lambda: sized(), 120, lambda: f"a sized report; have {[r.method for r in reports]}")
+            r = sized()[-1]
+            assert r.verdict == "stiction" and r.process.source == "identified" and r.process.description
+            assert r.s_pct > 0 and r.s_se_pct > 0 and r.j_se_pct > 0 and r.estimate_t_end_s is not None
+            with lock:
+                first_sticky = next(i for i, x in enumerate(reports) if x.verdict == "stiction")
+                assert reports[first_sticky].method == "none"  # reported at once, sized later
+            procs["agent"].send_signal(signal.SIGTERM)
+            assert procs["agent"].wait(timeout=30) == 0
+        finally:
+            sub.undeclare()
+            for p in procs.values():
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
