@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import threading
 import time
 from collections import deque
@@ -244,6 +245,8 @@ class AgentService:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
         arrays are views of the rolling buffer, and the pool pickles them later)."""
         if self._size_pool is None:
+            for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+                os.environ.setdefault(var, "1")  # the worker inherits it: one core, not BLAS's every core
             ctx = multiprocessing.get_context("spawn")  # never fork a process that runs Zenoh's threads
             self._size_pool = ProcessPoolExecutor(1, mp_context=ctx, initializer=lower_priority)
         future = self._size_pool.submit(size_in_worker, np.array(w.op), np.array(w.pv), float(w.ts_s), w.loop_id)
@@ -251,8 +254,8 @@ class AgentService:
         self.sizing.started(w.loop_id)
 
     def _collect_sizings(self) -> None:
-        """Sizings that came back: kept for the loop's next reports, and its latest report published
-        again with them at once (a dashboard need not wait for the next window)."""
+        """Sizings that came back: kept for the loop's next reports, and put into its latest report
+        for ``get`` at once (not published again: a window is reported exactly once)."""
         for future in [f for f in self._sizings if f.done()]:
             loop_id, t_end_s = self._sizings.pop(future)
             try:
@@ -267,10 +270,7 @@ class AgentService:
             report = StictionReport.model_validate_json(payload)
             sized = self.sizing.apply(report)
             if sized is not report:
-                payload = sized.model_dump_json().encode()
-                self.latest[loop_id] = payload
-                self.session.put(keys.report(self.settings.prefix, loop_id), payload,
-                                 encoding=self._zenoh.Encoding.APPLICATION_JSON)  # fmt: skip
+                self.latest[loop_id] = sized.model_dump_json().encode()
 
     def health(self, advance_rates: bool = False) -> AgentHealth:
         """The counters; rates are over the time since the last published health message."""

@@ -36,6 +36,22 @@ def _proc_stats(pid: int) -> tuple[float, float]:
     return cpu_s, int(hwm.split()[1]) / 1024
 
 
+def _children_cpu_s(pid: int) -> float:
+    """CPU seconds of a process's live children (the agent's sizing worker and its helpers)."""
+    total = 0.0
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            kids = (task / "children").read_text().split()
+        except OSError:
+            continue
+        for kid in kids:
+            try:
+                total += _proc_stats(int(kid))[0]
+            except (OSError, StopIteration):
+                continue  # gone meanwhile
+    return total
+
+
 def _exactly_once(rows, interval_s: float) -> dict:
     """Reports of the same loop and window end counted twice, and intervals no report covered."""
     by_loop: dict[str, list[float]] = {}
@@ -99,6 +115,7 @@ def run_throughput(
     agents: int = 1,
     kill_after_s: float | None = None,
     mix: str = "canonical",
+    size_every_min: float = 60.0,
 ) -> dict:
     """``kill_after_s``: SIGKILL the first agent that many seconds into the live phase (the others
     must take its loops over, each interval reported once).  ``mix``: ``canonical`` (the thesis's
@@ -152,6 +169,8 @@ def run_throughput(
                         str(report_every),
                         "--first-window",  # the burst fills whole windows: measure the steady state
                         str(window),
+                        "--size-every",
+                        str(size_every_min),
                     ],
                     stdout=subprocess.DEVNULL,
                     stderr=subprocess.PIPE,
@@ -203,6 +222,7 @@ def run_throughput(
         sent_at = np.zeros(n_live)
         started = time.monotonic()
         cpu0 = [_proc_stats(p.pid)[0] for p in procs]
+        children0 = [_children_cpu_s(p.pid) for p in procs]
         per_second = max(int(speed), 1)
         killed_at = None
         for k in range(0, n_live, per_second):
@@ -234,6 +254,7 @@ def run_throughput(
         tick.wait(3.0)  # let the last windows report
         wall = time.monotonic() - started
         stats = [killed_stats if i == 0 and killed_at is not None else _proc_stats(p.pid) for i, p in enumerate(procs)]
+        children = [_children_cpu_s(p.pid) for p in procs]
         for p in procs:
             p.terminate()
         stopped_late = 0
@@ -294,6 +315,9 @@ def run_throughput(
         "readings_deferred": sum(h.get("readings_deferred", 0) for h in health.values()),
         "rejected": rejected,
         "agent_cpu_share": [(s[0] - c) / wall for s, c in zip(stats, cpu0, strict=True)],
+        # the background sizing of sticky loops of unknown process, on a worker of lowered priority
+        "sizing_worker_cpu_share": [(c1 - c0) / wall for c1, c0 in zip(children, children0, strict=True)],
+        "loops_sized": sum(h.get("loops_sized", 0) for h in health.values()),
         "agent_peak_rss_mb": max(s[1] for s in stats),
         "agents_killed_after_sigterm": stopped_late,
     }

@@ -53,6 +53,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="canonical: every loop the thesis's sticky level loop (the dearest reports); plant: plant-like "
         "loops, a sixth sticky (default canonical)",
     )
+    t.add_argument(
+        "--size-every", type=float, default=60.0, metavar="MINUTES", help="the agents' --size-every (default 60)"
+    )
     t.add_argument("--json", action="store_true")
     b = sub.add_parser("bridge", help="OPC UA plant server -> bridge -> subscriber: samples lost, latency, CPU")
     b.add_argument("--loops", type=int, default=1000)
@@ -307,6 +310,7 @@ def _throughput(args) -> None:
         agents=args.agents,
         kill_after_s=args.kill_after,
         mix=args.mix,
+        size_every_min=args.size_every,
     )
     f |= {"host": _machine()}
     if args.json:
@@ -341,7 +345,8 @@ def _throughput(args) -> None:
     )
     print(
         f"  agent CPU {', '.join(f'{c:.0%}' for c in f['agent_cpu_share'])} of a core, "
-        f"peak RSS {f['agent_peak_rss_mb']:.0f} MB"
+        f"peak RSS {f['agent_peak_rss_mb']:.0f} MB; sizing worker "
+        f"{', '.join(f'{c:.0%}' for c in f['sizing_worker_cpu_share'])} of a core, {f['loops_sized']} loops sized"
     )
 
 
