@@ -25,6 +25,14 @@ def start_cli(*argv: str) -> subprocess.Popen:
     )
 
 
+def kill_left_over(procs: dict) -> None:
+    """Kill whatever a test's processes left running (a test that failed midway)."""
+    for p in procs.values():
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+
+
 @pytest.fixture(scope="session")
 def quantifier():
     return Quantifier()

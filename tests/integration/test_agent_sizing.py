@@ -13,7 +13,7 @@ import zenoh
 from schemas import keys
 from schemas.report import StictionReport
 from stiction import zenoh_config
-from tests.integration.conftest import start_cli, wait_until
+from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
 PREFIX = "test/sizing"
@@ -66,7 +66,4 @@ def test_a_replayed_sticky_plant_window_gets_its_process_identified_and_s_and_j_
             assert procs["agent"].wait(timeout=30) == 0
         finally:
             sub.undeclare()
-            for p in procs.values():
-                if p.poll() is None:
-                    p.kill()
-                    p.wait()
+            kill_left_over(procs)

@@ -13,7 +13,7 @@ import pytest
 import zenoh
 
 from stiction import zenoh_config
-from tests.integration.conftest import start_cli, wait_until
+from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 pytest.importorskip("asyncua")
 PREFIX = "test/opcua-security"
@@ -84,7 +84,4 @@ def test_the_bridge_reads_a_secure_server_with_its_certificate_and_is_refused_wi
         procs["bridge"].send_signal(signal.SIGTERM)
         assert procs["bridge"].wait(timeout=20) == 0, procs["bridge"].stderr.read()
     finally:
-        for p in procs.values():
-            if p.poll() is None:
-                p.kill()
-                p.wait()
+        kill_left_over(procs)

@@ -13,7 +13,7 @@ import zenoh
 from schemas import keys
 from schemas.report import StictionReport
 from stiction import zenoh_config
-from tests.integration.conftest import start_cli, wait_until
+from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
 PREFIX = "test/replay"
@@ -61,10 +61,7 @@ def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path
             assert procs["agent"].wait(timeout=20) == 0
         finally:
             sub.undeclare()
-            for p in procs.values():
-                if p.poll() is None:
-                    p.kill()
-                    p.wait()
+            kill_left_over(procs)
 
 
 def test_the_demo_shows_replayed_measured_loops_beside_the_simulated_ones(tmp_path):

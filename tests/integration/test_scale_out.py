@@ -13,7 +13,7 @@ import zenoh
 from schemas import keys
 from schemas.report import StictionReport
 from stiction import zenoh_config
-from tests.integration.conftest import start_cli, wait_until
+from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PREFIX = "test/scale"
 LOOPS = 12
@@ -86,7 +86,4 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
                 assert procs[name].wait(timeout=20) == 0, procs[name].stderr.read()
         finally:
             sub.undeclare()
-            for p in procs.values():
-                if p.poll() is None:
-                    p.kill()
-                    p.wait()
+            kill_left_over(procs)
