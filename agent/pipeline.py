@@ -37,6 +37,7 @@ from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
 from ident import controller
 from ident.checks import blocking, data_checks, impossible_friction
+from ident.sizing import Sizing
 from schemas.report import Estimate, ProcessInfo, StictionReport
 from sim.loop import TS_S
 from sim.process import LOOPS
@@ -54,6 +55,8 @@ class Result(NamedTuple):
     reading: Reading | None
     """The friction reading made from this very window (None where the verdict is not stiction, or
     where the window carried an earlier reading)."""
+    sizing: Sizing | None = None
+    """The sizing under the identified process made from this window (``identify``), else None."""
 
 
 READING_FIELDS = (
@@ -245,7 +248,7 @@ class Quantifier:
             if verdict.verdict == "stiction":
                 fields = {k: getattr(report, k) for k in READING_FIELDS}
                 reading = Reading(fields, tuple(warnings[fresh:]), w.t_end_s)
-            results.append(Result(report, None, reading))
+            results.append(Result(report, None, reading, sizing))
         if not details:
             return results
         return [

@@ -27,6 +27,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="skip identifying the process of loops called sticky (seconds each): their S and J then stay null "
         "unless --process is given",
     )
+    p.add_argument(
+        "--size-every",
+        type=float,
+        default=60.0,
+        metavar="MINUTES",
+        help="with --every: a sticky loop's process is identified and S and J read once in this many minutes "
+        "of its data, the windows between carrying that reading (default 60, as the agent)",
+    )
     p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
     p.add_argument(
         "--rank",
@@ -81,12 +89,22 @@ def _plot(png: Path, window, report, details) -> Path:
     return plot_loop(png, window, report, details)
 
 
+CARRIED = (
+    "S and J from the process identified in an earlier window of this loop (estimate_t_end_s); "
+    "re-read once in --size-every minutes of data"
+)
+
+
 def run(args: argparse.Namespace) -> int:
+    from agent.identified import with_sizing
     from agent.pipeline import Quantifier, Window
     from agent.window import MIN_SAMPLES
 
     if args.csv and not args.rank:
         raise StictionError("--csv FILE goes with --rank")
+    if args.size_every < 0:
+        raise StictionError(f"--size-every {args.size_every:g}: minutes, at least 0")
+    sized: dict[str, tuple] = {}  # file -> (its last sizing, the end of the window it came from, s)
     quantifier = Quantifier(args.models)
     failed: list[str] = []
     ranked: list = []
@@ -101,10 +119,16 @@ def run(args: argparse.Namespace) -> int:
                 process=args.process,
                 sp=export.sp,
             )
-            if args.plot:  # the plot draws the INLPCA curve: fit it on every window
-                report, details = quantifier.quantify_with_details([window], identify=not args.no_identify)[0]
-            else:
-                report, details = quantifier.quantify([window], identify=not args.no_identify)[0], None
+            last = sized.get(str(path))
+            t_end = window.t_end_s
+            due = not args.no_identify and (last is None or t_end - last[1] >= 60.0 * args.size_every)
+            # the plot draws the INLPCA curve: fit it on every window
+            result = quantifier.results([window], details=bool(args.plot), identify=due)[0]
+            report, details = result.report, result.details
+            if result.sizing is not None:
+                sized[str(path)] = (result.sizing, t_end)
+            elif last is not None and not args.no_identify:
+                report = with_sizing(report, last[0], last[1], CARRIED)
             if export.warnings:
                 report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
         except StictionError as e:  # one bad file never stops the others

@@ -91,3 +91,29 @@ def test_rank_puts_the_sticky_valve_first_and_the_dead_sensor_last(loops, tmp_pa
 def test_csv_without_rank_is_refused(loops, capsys):
     assert main(["quantify", str(loops / "a.csv"), "--csv", "x.csv"]) == 2
     assert "--csv FILE goes with --rank" in capsys.readouterr().err
+
+
+def test_a_long_plant_export_is_sized_once_in_size_every_minutes_of_data_and_carried_between(tmp_path, capsys):
+    import numpy as np
+
+    from sim.plant_loops import plant_loops, simulate_plant
+
+    loop = [x for x in plant_loops(8, 2027) if x.cause == "stiction"][6]  # first order, sampled every 5 s
+    op, pv, sp, ts_s = simulate_plant([loop], samples=3000)[0]
+    t = np.arange(op.size) * ts_s
+    np.savetxt(tmp_path / "fic.csv", np.c_[t, op, pv, sp], delimiter=",", header="t,op,pv,sp", comments="")
+    argv = ["quantify", str(tmp_path / "fic.csv"), "--every", "600", "--last", "600", "--json"]
+    assert main([*argv, "--size-every", "100"]) == 0  # 6000 s of data between sizings; windows of 3000 s
+    reports = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    sized = [r for r in reports if r["method"] == "identified"]
+    fresh = [r for r in sized if r["estimate_t_end_s"] == r["t_end_s"]]
+    carried = [r for r in sized if r["estimate_t_end_s"] < r["t_end_s"]]
+    assert len(fresh) >= 2 and len(carried) >= 1
+    assert all(b["t_end_s"] - a["t_end_s"] >= 6000 for a, b in zip(fresh, fresh[1:]))
+    for r in carried:
+        source = next(f for f in fresh if f["t_end_s"] == r["estimate_t_end_s"])
+        assert r["s_pct"] == source["s_pct"] and any("earlier window" in w for w in r["warnings"])
+    for r in sized:
+        assert abs(r["s_pct"] - loop.s_pct) <= 2 * r["s_se_pct"]
+    assert main([*argv, "--no-identify"]) == 0
+    assert all(json.loads(line)["method"] == "none" for line in capsys.readouterr().out.splitlines())
