@@ -11,7 +11,9 @@ and ``method`` says which one ``fs_pct``/``fd_pct`` come from:
 
 All three read the thesis's level loop: where its process is neither declared nor identified
 (``ident.controller``), ``method`` is ``none`` and the headline numbers are null, the learned
-and thesis readings staying in their blocks, and a warning says why.
+and thesis readings staying in their blocks, and a warning says why; with ``identify``
+(``stiction quantify``) such a loop called sticky has its own process identified and S and J
+read under it instead (``identified``: ``ident.sizing``, ``agent.identified``).
 """
 
 from __future__ import annotations
