@@ -52,9 +52,6 @@ class SizingPlan:
         failed = Sizing(nan, nan, nan, nan, None, 0, "the background identification failed")
         self.latest[loop_id] = Sized(sizing if sizing is not None else failed, t_end_s, now_s)
 
-    def forget(self, loop_id: str) -> None:
-        self.latest.pop(loop_id, None)
-
     def apply(self, report: StictionReport) -> StictionReport:
         """The report with the loop's last sizing, where it is of a sticky loop of unknown process."""
         last = self.latest.get(report.loop_id)
