@@ -11,6 +11,7 @@ from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
 from ident.fit import Friction, ValveFit
 from ident.process import NOMINAL
 from ident.record import Record
+from ident.sizing import with_model_error
 from schemas import diagnosis as schema
 
 
@@ -112,8 +113,9 @@ def diagnosis_report(
         why = impossible_valve(fr, op_range) if fr is not None else None
         if why:
             notes.append(f"{which} model: {why}; its friction numbers are withheld")
-    if linear or impossible_valve(f, op_range) or blocking(problems):
-        f = _without_friction(f)
+    withheld = linear or impossible_valve(f, op_range) or blocking(problems)
+    # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
+    f = _without_friction(f) if withheld else with_model_error(f)
     base_friction = (
         d.base_friction
         if not (impossible_valve(d.base_friction, op_range) or blocking(problems))

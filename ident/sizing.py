@@ -5,8 +5,9 @@ time, sensor and actuator lags, the gain free) open loop from the measured OP to
 the band S from the brackets its slips put on it and J from the least squares.  Its standard
 errors are the fit's, conditional on the model being right; on simulated plant-like loops
 (``sim.plant_loops``: processes, tunings and sampling the fit does not know) the model is only
-close, and the errors are larger than the fit says.  So each standard error here is the fit's
-combined with a model error proportional to S, measured on those loops; and where the fit
+close, and the errors are larger than the fit says.  So each standard error of a diagnosis
+report is the fit's combined with a model error proportional to S, measured on those loops
+(``with_model_error``, applied by ``ident.report.diagnosis_report``); and where the fit
 cannot separate S from J (the whole band read as jump: fd at its bound of zero, where a few
 wrong slips move S by a factor of several) or reads fewer than two slips, nothing is reported
 and the reason is.
@@ -84,7 +85,23 @@ def from_report(report) -> Sizing:
             "separable from the process gain in this record"
         )
         return Sizing(nan, nan, nan, nan, process, slips, why)
-    return Sizing(s, j, math.hypot(s_se, MODEL_ERROR_S * s), math.hypot(j_se, MODEL_ERROR_J * s), process, slips)
+    return Sizing(s, j, s_se, j_se, process, slips)
+
+
+def with_model_error(f):
+    """``ident.fit.Friction`` with the model error added to its standard errors (in quadrature):
+    S's by ``MODEL_ERROR_S`` S, J's and stop's by ``MODEL_ERROR_J`` S."""
+    if not math.isfinite(f.s_pct):
+        return f
+    s_se = math.hypot(f.s_se_pct, MODEL_ERROR_S * f.s_pct)
+    k = PCT_OF_500LBF_PER_PCT_OF_SPAN
+    return replace(
+        f,
+        s_se_pct=s_se,
+        j_se_pct=math.hypot(f.j_se_pct, MODEL_ERROR_J * f.s_pct),
+        fs_se_pct=s_se * k,
+        fd_se_pct=math.hypot(f.fd_se_pct, MODEL_ERROR_J * f.s_pct * k),
+    )
 
 
 def _why_not(report) -> str:

@@ -5,7 +5,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from ident.sizing import MODEL_ERROR_J, MODEL_ERROR_S, from_report, size
+from ident.fit import Friction
+from ident.sizing import MODEL_ERROR_J, MODEL_ERROR_S, from_report, size, with_model_error
 from sim.plant_loops import plant_loops, simulate_plant, stable
 
 
@@ -15,12 +16,16 @@ def _report(**kw):
 
 
 def test_the_uncertainty_adds_the_model_error_to_the_fits_own():
+    f = Friction(10.0, 4.0, 0.1, 0.2, 24.0, 14.4, 0.24, 0.5, 6)
+    g = with_model_error(f)
+    assert (g.s_pct, g.j_pct, g.fs_pct, g.fd_pct) == (10.0, 4.0, 24.0, 14.4)
+    assert g.s_se_pct == pytest.approx(math.hypot(0.1, MODEL_ERROR_S * 10.0))
+    assert g.j_se_pct == pytest.approx(math.hypot(0.2, MODEL_ERROR_J * 10.0))
+    assert g.fs_se_pct == pytest.approx(2.4 * g.s_se_pct) and g.fd_se_pct > f.fd_se_pct
     s = from_report(_report())
-    assert s.read and s.s_pct == 10.0 and s.j_pct == 4.0
-    assert s.s_se_pct == pytest.approx(math.hypot(0.1, MODEL_ERROR_S * 10.0))
-    assert s.j_se_pct == pytest.approx(math.hypot(0.2, MODEL_ERROR_J * 10.0))
+    assert s.read and (s.s_pct, s.j_pct, s.s_se_pct, s.j_se_pct) == (10.0, 4.0, 0.1, 0.2)
     fs, fd, fs_se, _ = s.fs_fd_pct()  # 12 lbf per % of span, 5 lbf per % of 500 lbf
-    assert (fs, fd) == pytest.approx((24.0, 14.4)) and fs_se == pytest.approx(2.4 * s.s_se_pct)
+    assert (fs, fd) == pytest.approx((24.0, 14.4)) and fs_se == pytest.approx(0.24)
 
 
 @pytest.mark.parametrize(
