@@ -33,9 +33,12 @@ def size_safely(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str) -> Si
 
     try:
         return size(op, pv, ts_s, loop_id)
-    except (StictionError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
-        nan = float("nan")
-        return Sizing(nan, nan, nan, nan, None, 0, f"the process could not be identified ({e})")
+    except StictionError as e:
+        why = str(e)
+    except Exception as e:  # noqa: BLE001 - a fit that breaks on one loop must cost that loop's numbers only
+        why = f"{type(e).__name__}: {e}"
+    nan = float("nan")
+    return Sizing(nan, nan, nan, nan, None, 0, f"the process could not be identified ({why})")
 
 
 def _opt(x: float) -> float | None:
@@ -46,8 +49,10 @@ def with_sizing(report: StictionReport, sizing: Sizing, t_end_s: float | None, n
     """``report`` with the sizing's process, S, J, fs and fd, where the report is of a sticky loop of
     unknown process (any other report is returned as it is).  ``t_end_s``: the end of the window
     the sizing was made from; ``note``: a warning added where the numbers are shown."""
-    if report.verdict != "stiction" or report.process.source != "none" or sizing.process is None:
+    if report.verdict != "stiction" or report.process.source != "none":
         return report
+    if sizing.process is None:  # the identification itself failed: say so, the rest stays
+        return report.model_copy(update={"warnings": [*report.warnings, NOT_READ_PREFIX + sizing.why]})
     p = sizing.process
     warnings = [w for w in report.warnings if w not in (NOT_IDENTIFIED, NOT_READ_WARNING)]
     warnings.insert(0, identified_warning(sizing))

@@ -293,3 +293,22 @@ def test_the_identified_models_pv_comes_with_the_details_and_follows_the_measure
         drawn += 1
     assert drawn >= 1
     assert all(d.model_pv is None for r, d in pairs if r.process.source == "none")
+
+
+def test_an_identification_that_breaks_costs_that_loop_its_numbers_only(quantifier, monkeypatch):
+    import ident.sizing
+    from sim.plant_loops import plant_loops, simulate_plant, stable
+
+    def broken(*args, **kwargs):
+        raise IndexError("index 7 is out of bounds")
+
+    monkeypatch.setattr(ident.sizing, "size", broken)
+    loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
+    windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in
+               enumerate(simulate_plant(loops)) if stable(op, pv)]  # fmt: skip
+    reports = quantifier.quantify(windows, identify=True)
+    sticky = [r for r in reports if r.verdict == "stiction"]
+    assert sticky and len(reports) == len(windows)
+    for r in sticky:
+        assert r.method == "none" and r.s_pct is None and r.process.source == "none"
+        assert any("could not be identified (IndexError: index 7" in w for w in r.warnings)

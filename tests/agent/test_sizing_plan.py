@@ -52,12 +52,14 @@ def test_a_sized_loops_reports_carry_its_process_and_numbers_in_place_of_the_war
     assert plan.apply(_report("L2")) == _report("L2")
 
 
-def test_a_sizing_that_read_nothing_says_why_and_a_failed_one_changes_nothing():
+def test_a_sizing_that_read_nothing_says_why_and_so_does_a_failed_one():
     plan = SizingPlan(refresh_s=600.0)
     nan = float("nan")
     plan.finished("L1", Sizing(nan, nan, nan, nan, PROCESS, 1, "1 slip(s) read in the record"), 5.0, now_s=0.0)
     r = plan.apply(_report("L1"))
     assert r.method == "none" and r.s_pct is None and r.process.source == "identified"
     assert NOT_READ_PREFIX + "1 slip(s) read in the record" in r.warnings
-    plan.finished("L2", None, 5.0, now_s=0.0)  # the worker failed
-    assert plan.apply(_report("L2")) == _report("L2") and plan.done == 2
+    plan.finished("L2", None, 5.0, now_s=0.0)  # the worker failed: the report says so, nothing else changes
+    failed = plan.apply(_report("L2"))
+    assert failed.warnings[-1] == NOT_READ_PREFIX + "the background identification failed" and plan.done == 2
+    assert failed.model_copy(update={"warnings": failed.warnings[:-1]}) == _report("L2")
