@@ -105,7 +105,9 @@ def with_model_error(f):
 
 
 def _why_not(report) -> str:
-    withheld = [w for w in report.warnings if "withheld" in w or "not supported" in w]
+    withheld = [i for i, w in enumerate(report.warnings) if "withheld" in w or "not supported" in w]
     if withheld:
-        return withheld[-1]
+        why = report.warnings[withheld[-1]]
+        # "(above)" points at the data checks before it in the diagnosis; this reason travels alone
+        return why.replace("(above)", f"({'; '.join(report.warnings[: withheld[-1]])})") if "(above)" in why else why
     return f"{report.slips} slip(s) read in the record: too few to bracket the band"

@@ -37,6 +37,10 @@ def test_the_uncertainty_adds_the_model_error_to_the_fits_own():
             dict(s_pct=None, warnings=["a valve that does not stick explains PV as well: not supported"]),
             "does not stick",
         ),
+        (
+            dict(s_pct=None, warnings=["PV flat", "the data cannot show a valve's friction (above): withheld"]),
+            "friction (PV flat): withheld",
+        ),
     ],
 )
 def test_what_the_fit_cannot_separate_is_withheld_with_the_reason(kw, reason):
