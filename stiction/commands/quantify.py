@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import os
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
+
+import numpy as np
 
 from schemas.errors import StictionError
 from stiction.commands import exports
@@ -26,6 +31,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="skip identifying the process of loops called sticky (seconds each): their S and J then stay null "
         "unless --process is given",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=min(os.cpu_count() or 1, 4),
+        help="worker processes for those identifications (default: the cores, at most 4)",
     )
     p.add_argument(
         "--size-every",
@@ -95,8 +106,33 @@ CARRIED = (
 )
 
 
+CHUNK = 32
+"""Windows quantified before the sizings among them run together on the workers."""
+
+
+class _Done:
+    """A sizing made here, with a future's ``result``."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def result(self):
+        return self.value
+
+
+@dataclass
+class _Item:
+    path: Path
+    export: object
+    window: object
+    result: object
+    job: object = None
+    """The sizing this window's report shows (a future or ``_Done``), or None."""
+    job_t_end_s: float | None = None
+    fresh: bool = False
+
+
 def run(args: argparse.Namespace) -> int:
-    from agent.identified import with_sizing
     from agent.pipeline import Quantifier, Window
     from agent.window import MIN_SAMPLES
 
@@ -104,47 +140,41 @@ def run(args: argparse.Namespace) -> int:
         raise StictionError("--csv FILE goes with --rank")
     if args.size_every < 0:
         raise StictionError(f"--size-every {args.size_every:g}: minutes, at least 0")
-    sized: dict[str, tuple] = {}  # file -> (its last sizing, the end of the window it came from, s)
+    if args.jobs < 1:
+        raise StictionError(f"--jobs {args.jobs}: at least 1")
     quantifier = Quantifier(args.models)
     failed: list[str] = []
     ranked: list = []
-    for path, export in exports.windows(args, "quantify", FIELDS, MIN_SAMPLES, failed):
-        try:
-            window = Window(
-                loop_id=path.stem,
-                op=export.op,
-                pv=export.pv,
-                ts_s=export.ts_s,
-                t_end_s=float(export.t_s[-1]),
-                process=args.process,
-                sp=export.sp,
-            )
-            last = sized.get(str(path))
-            t_end = window.t_end_s
-            due = not args.no_identify and (last is None or t_end - last[1] >= 60.0 * args.size_every)
-            # the plot draws the INLPCA curve: fit it on every window
-            result = quantifier.results([window], details=bool(args.plot), identify=due)[0]
-            report, details = result.report, result.details
-            if result.sizing is not None:
-                sized[str(path)] = (result.sizing, t_end)
-            elif last is not None and not args.no_identify:
-                report = with_sizing(report, last[0], last[1], CARRIED)
-            if export.warnings:
-                report = report.model_copy(update={"warnings": [*report.warnings, *export.warnings]})
-        except StictionError as e:  # one bad file never stops the others
-            failed.append(exports.report_error("quantify", path, e))
-            continue
-        if args.rank:
-            ranked.append((str(path), report))
-            continue
-        exports.show(
-            args,
-            path,
-            export,
-            report,
-            _summary(str(path), report),
-            partial(_plot, window=window, report=report, details=details),
-        )
+    sized: dict[str, tuple] = {}  # file -> (end of the window its last sizing was made from, that sizing's job)
+    pool = None
+    pending: list[_Item] = []
+    try:
+        for path, export in exports.windows(args, "quantify", FIELDS, MIN_SAMPLES, failed):
+            try:
+                window = Window(
+                    loop_id=path.stem,
+                    op=export.op,
+                    pv=export.pv,
+                    ts_s=export.ts_s,
+                    t_end_s=float(export.t_s[-1]),
+                    process=args.process,
+                    sp=export.sp,
+                )
+                # the plot draws the INLPCA curve: fit it on every window
+                result = quantifier.results([window], details=bool(args.plot))[0]
+            except StictionError as e:  # one bad file never stops the others
+                failed.append(exports.report_error("quantify", path, e))
+                continue
+            pending.append(_Item(path, export, window, result))
+            if len(pending) >= CHUNK:
+                pool = _size(args, pending, sized, pool)
+                _finish(args, pending, ranked)
+                pending = []
+        pool = _size(args, pending, sized, pool)
+        _finish(args, pending, ranked)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
     if args.rank:
         from stiction.ranking import print_ranking, write_csv
 
@@ -152,3 +182,65 @@ def run(args: argparse.Namespace) -> int:
         if args.csv:
             write_csv(args.csv, rows)
     return 2 if failed else 0
+
+
+def _size(args, items: list[_Item], sized: dict, pool):
+    """Start the sizings these windows need: a sticky window of unknown process, once in
+    ``--size-every`` minutes of its file's data; the windows between share the last one.  On
+    ``--jobs`` worker processes (started here when first needed); returns the pool."""
+    from agent.identified import size_safely
+
+    for item in items:
+        r = item.result.report
+        if args.no_identify or r.verdict != "stiction" or r.process.source != "none":
+            continue
+        last = sized.get(str(item.path))
+        t_end = item.window.t_end_s
+        if last is not None and t_end - last[0] < 60.0 * args.size_every:
+            item.job, item.job_t_end_s = last[1], last[0]
+            continue
+        w = item.window
+        if args.jobs > 1:
+            pool = pool or _pool(args.jobs)
+            item.job = pool.submit(size_safely, np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id)
+        else:
+            item.job = _Done(size_safely(np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id))
+        item.job_t_end_s, item.fresh = t_end, True
+        sized[str(item.path)] = (t_end, item.job)
+    return pool
+
+
+def _pool(jobs: int):
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")  # each worker one core
+    return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"))
+
+
+def _finish(args, items: list[_Item], ranked: list) -> None:
+    """The windows' reports, in order, with their sizings: printed, plotted or kept for the ranking."""
+    from agent.identified import with_sizing
+
+    for item in items:
+        report, details = item.result.report, item.result.details
+        if item.job is not None:
+            sizing = item.job.result()
+            report = with_sizing(report, sizing, item.job_t_end_s, None if item.fresh else CARRIED)
+            if item.fresh and details is not None and sizing.model_pv_pct is not None:
+                details = dataclasses.replace(details, model_pv=sizing.model_pv_pct)
+        if item.export.warnings:
+            report = report.model_copy(update={"warnings": [*report.warnings, *item.export.warnings]})
+        if args.rank:
+            ranked.append((str(item.path), report))
+            continue
+        exports.show(
+            args,
+            item.path,
+            item.export,
+            report,
+            _summary(str(item.path), report),
+            partial(_plot, window=item.window, report=report, details=details),
+        )

@@ -117,3 +117,23 @@ def test_a_long_plant_export_is_sized_once_in_size_every_minutes_of_data_and_car
         assert abs(r["s_pct"] - loop.s_pct) <= 2 * r["s_se_pct"]
     assert main([*argv, "--no-identify"]) == 0
     assert all(json.loads(line)["method"] == "none" for line in capsys.readouterr().out.splitlines())
+
+
+def test_sizing_on_worker_processes_gives_the_same_reports_in_the_same_order(tmp_path, capsys):
+    import numpy as np
+
+    from sim.plant_loops import plant_loops, simulate_plant, stable
+
+    loops = [x for x in plant_loops(8, 2027) if x.cause == "stiction"]
+    for i, (op, pv, sp, ts_s) in enumerate(simulate_plant(loops)):
+        if stable(op, pv):
+            t = np.arange(op.size) * ts_s
+            np.savetxt(tmp_path / f"p{i}.csv", np.c_[t, op, pv, sp], delimiter=",", header="t,op,pv,sp", comments="")
+    (tmp_path / "broken.csv").write_text("op,pv\n1,2\n")
+    out = {}
+    for jobs in ("1", "2"):
+        assert main(["quantify", str(tmp_path), "--json", "--jobs", jobs]) == 2  # the broken file, named
+        out[jobs] = capsys.readouterr()
+    assert out["1"].out == out["2"].out and "broken.csv" in out["2"].err
+    reports = [json.loads(line) for line in out["2"].out.splitlines()]
+    assert len(reports) == len(list(tmp_path.glob("p*.csv"))) and any(r["method"] == "identified" for r in reports)
