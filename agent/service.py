@@ -225,7 +225,7 @@ class AgentService:
             report = report.model_copy(update={"agent_id": self.settings.agent_id})
             if self.sizing is not None:
                 if self.sizing.wanted(report, time.monotonic()):
-                    self._size(w)
+                    self._size(w, report.partial)
                 report = self.sizing.apply(report)
             payload = report.model_dump_json().encode()
             self.latest[w.loop_id] = payload
@@ -241,7 +241,7 @@ class AgentService:
         self.core.completed(len(arrivals), arrivals, time.monotonic())
 
     # background sizing ---------------------------------------------------------------------------
-    def _size(self, w) -> None:
+    def _size(self, w, partial: bool) -> None:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
         arrays are views of the rolling buffer, and the pool pickles them later)."""
         if self._size_pool is None:
@@ -251,7 +251,7 @@ class AgentService:
             self._size_pool = ProcessPoolExecutor(1, mp_context=ctx, initializer=lower_priority)
         future = self._size_pool.submit(size_in_worker, np.array(w.op), np.array(w.pv), float(w.ts_s), w.loop_id)
         self._sizings[future] = (w.loop_id, w.t_end_s)
-        self.sizing.started(w.loop_id)
+        self.sizing.started(w.loop_id, len(w.op), partial)
 
     def _collect_sizings(self) -> None:
         """Sizings that came back: kept for the loop's next reports, and put into its latest report

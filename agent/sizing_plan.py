@@ -4,7 +4,9 @@ Identifying a loop's process and reading S and J under it (``ident.sizing``) tak
 CPU, a thousand times a report's budget.  A valve's friction changes over weeks, so the agent
 sizes each such loop once every ``refresh_s`` on a worker of its own, at most ``in_flight``
 at a time, and every report of the loop while it is called sticky carries the last sizing
-(``estimate_t_end_s`` names the window it came from).  Pure: no clock, no processes.
+(``estimate_t_end_s`` names the window it came from).  A sizing made from a new loop's partial
+window is made again once the window has grown by half (a 200-sample start often holds too
+few slips).  Pure: no clock, no processes.
 """
 
 from __future__ import annotations
@@ -22,6 +24,13 @@ class Sized:
     t_end_s: float | None
     at_s: float
     """When it was made (the agent's monotonic clock)."""
+    n_samples: int = 0
+    partial: bool = False
+    """Whether the window it was made from was a new loop's partial one."""
+
+
+GROWN = 1.5
+"""A partial window's sizing is made again once the window holds this many times its samples."""
 
 
 class SizingPlan:
@@ -29,7 +38,7 @@ class SizingPlan:
         self.refresh_s = refresh_s
         self.max_in_flight = in_flight
         self.latest: dict[str, Sized] = {}
-        self.in_flight: set[str] = set()
+        self.in_flight: dict[str, tuple[int, bool]] = {}  # loop -> (samples, partial) of the window being sized
         self.done = 0
 
     def wanted(self, report: StictionReport, now_s: float) -> bool:
@@ -39,18 +48,20 @@ class SizingPlan:
         if len(self.in_flight) >= self.max_in_flight:
             return False
         last = self.latest.get(report.loop_id)
-        return last is None or now_s - last.at_s >= self.refresh_s
+        if last is None or now_s - last.at_s >= self.refresh_s:
+            return True
+        return last.partial and report.n_samples >= GROWN * last.n_samples
 
-    def started(self, loop_id: str) -> None:
-        self.in_flight.add(loop_id)
+    def started(self, loop_id: str, n_samples: int = 0, partial: bool = False) -> None:
+        self.in_flight[loop_id] = (n_samples, partial)
 
     def finished(self, loop_id: str, sizing: Sizing | None, t_end_s: float | None, now_s: float) -> None:
         """A sizing came back (None: the worker failed; the loop is tried again after ``refresh_s``)."""
-        self.in_flight.discard(loop_id)
+        n_samples, partial = self.in_flight.pop(loop_id, (0, False))
         self.done += 1
         nan = float("nan")
         failed = Sizing(nan, nan, nan, nan, None, 0, "the background identification failed")
-        self.latest[loop_id] = Sized(sizing if sizing is not None else failed, t_end_s, now_s)
+        self.latest[loop_id] = Sized(sizing if sizing is not None else failed, t_end_s, now_s, n_samples, partial)
 
     def apply(self, report: StictionReport) -> StictionReport:
         """The report with the loop's last sizing, where it is of a sticky loop of unknown process."""

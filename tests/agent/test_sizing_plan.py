@@ -63,3 +63,14 @@ def test_a_sizing_that_read_nothing_says_why_and_so_does_a_failed_one():
     failed = plan.apply(_report("L2"))
     assert failed.warnings[-1] == NOT_READ_PREFIX + "the background identification failed" and plan.done == 2
     assert failed.model_copy(update={"warnings": failed.warnings[:-1]}) == _report("L2")
+
+
+def test_a_sizing_from_a_new_loops_partial_window_is_made_again_once_the_window_has_grown():
+    plan = SizingPlan(refresh_s=3600.0)
+    plan.started("L1", n_samples=200, partial=True)
+    plan.finished("L1", Sizing(float("nan"), float("nan"), float("nan"), float("nan"), PROCESS, 1, "1 slip"), 9.0, 0.0)
+    grown = _report("L1").model_copy(update={"n_samples": 300, "partial": True})
+    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 299}), 1.0) and plan.wanted(grown, 1.0)
+    plan.started("L1", n_samples=1000, partial=False)
+    plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 99.0, 2.0)
+    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 1000}), 3.0)  # full: the hour holds
