@@ -1,9 +1,10 @@
-"""A report's friction read under the process identified from its own window (``ident.sizing``): pure assembly.
+"""A report's friction read under the process identified from its own window (``ident.sizing``).
 
 The pipeline's learned models read the thesis's level loop only; a loop called sticky whose
 process is neither declared nor identified as the thesis's gets ``method: "none"`` from
-them.  ``with_sizing`` puts a sizing made from the loop's window (by ``stiction quantify``
-at once, by the agent in the background: ``agent.sizing_plan``) into such a report.
+them.  ``with_sizing`` (pure) puts a sizing made from the loop's window (by ``stiction
+quantify`` at once, by the agent in the background: ``agent.sizing_plan``) into such a
+report; ``size_safely`` makes one, a failure becoming the reason it read nothing.
 """
 
 from __future__ import annotations
@@ -20,8 +21,9 @@ from schemas.report import ProcessInfo, StictionReport
 NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
 NOT_READ_WARNING = (
     "S and J not read: the learned models know only the thesis's level loop and this loop's process is "
-    "neither declared nor identified (their readings stay in the 'learned' and 'thesis' blocks; "
-    "stiction diagnose reads S and J under an identified process)"
+    "neither declared nor identified (their readings stay in the 'learned' and 'thesis' blocks); "
+    "stiction quantify and stiction diagnose read S and J under the process they identify, the agent "
+    "in the background (--size-every)"
 )
 NOT_READ_PREFIX = "S and J not read under the identified process: "
 
