@@ -98,6 +98,7 @@ class AgentService:
         self.sizing = SizingPlan(settings.size_every_s) if settings.size_every_s > 0 else None
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
+        self._size_queue: dict = {}  # loop_id -> its newest window waiting for the worker
 
     # zenoh callbacks: keep them tiny ------------------------------------------------------------
     def _on_sample(self, sample) -> None:
@@ -225,7 +226,7 @@ class AgentService:
             report = report.model_copy(update={"agent_id": self.settings.agent_id})
             if self.sizing is not None:
                 if self.sizing.wanted(report, time.monotonic()):
-                    self._size(w, report.partial)
+                    self._size_or_queue(w, report.partial)
                 report = self.sizing.apply(report)
             payload = report.model_dump_json().encode()
             self.latest[w.loop_id] = payload
@@ -241,7 +242,17 @@ class AgentService:
         self.core.completed(len(arrivals), arrivals, time.monotonic())
 
     # background sizing ---------------------------------------------------------------------------
-    def _size(self, w, partial: bool) -> None:
+    def _size_or_queue(self, w, partial: bool) -> None:
+        """Size the window now if the worker is free, else keep it (the loop's latest) until it is:
+        a loop whose stream ends while another is being sized is still sized."""
+        job = (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, partial)
+        if self.sizing.has_room():
+            self._size(*job)
+        else:
+            self._size_queue.pop(w.loop_id, None)  # its newest window, in the order loops asked
+            self._size_queue[w.loop_id] = job
+
+    def _size(self, loop_id, op, pv, ts_s, t_end_s, partial) -> None:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
         arrays are views of the rolling buffer, and the pool pickles them later)."""
         if self._size_pool is None:
@@ -249,9 +260,9 @@ class AgentService:
                 os.environ.setdefault(var, "1")  # the worker inherits it: one core, not BLAS's every core
             ctx = multiprocessing.get_context("spawn")  # never fork a process that runs Zenoh's threads
             self._size_pool = ProcessPoolExecutor(1, mp_context=ctx, initializer=lower_priority)
-        future = self._size_pool.submit(size_in_worker, np.array(w.op), np.array(w.pv), float(w.ts_s), w.loop_id)
-        self._sizings[future] = (w.loop_id, w.t_end_s)
-        self.sizing.started(w.loop_id, len(w.op), partial)
+        future = self._size_pool.submit(size_in_worker, op, pv, ts_s, loop_id)
+        self._sizings[future] = (loop_id, t_end_s)
+        self.sizing.started(loop_id, len(op), partial)
 
     def _collect_sizings(self) -> None:
         """Sizings that came back: kept for the loop's next reports, and put into its latest report
@@ -271,6 +282,8 @@ class AgentService:
             sized = self.sizing.apply(report)
             if sized is not report:
                 self.latest[loop_id] = sized.model_dump_json().encode()
+        while self._size_queue and self.sizing.has_room():
+            self._size(*self._size_queue.pop(next(iter(self._size_queue))))
 
     def health(self, advance_rates: bool = False) -> AgentHealth:
         """The counters; rates are over the time since the last published health message."""

@@ -4,9 +4,9 @@ Identifying a loop's process and reading S and J under it (``ident.sizing``) tak
 CPU, a thousand times a report's budget.  A valve's friction changes over weeks, so the agent
 sizes each such loop once every ``refresh_s`` on a worker of its own, at most ``in_flight``
 at a time, and every report of the loop while it is called sticky carries the last sizing
-(``estimate_t_end_s`` names the window it came from).  A sizing made from a new loop's partial
-window is made again once the window has grown by half (a 200-sample start often holds too
-few slips).  Pure: no clock, no processes.
+(``estimate_t_end_s`` names the window it came from).  A new loop's partial window is sized
+from ``MIN_PARTIAL_SAMPLES`` on (a 200-sample start often holds too few slips), and again once
+the window is full or twice as long.  Pure: no clock, no processes.
 """
 
 from __future__ import annotations
@@ -29,8 +29,10 @@ class Sized:
     """Whether the window it was made from was a new loop's partial one."""
 
 
-GROWN = 1.5
-"""A partial window's sizing is made again once the window holds this many times its samples."""
+MIN_PARTIAL_SAMPLES = 500
+"""A new loop's partial window is sized once it holds this many samples."""
+GROWN = 2.0
+"""A partial window's sizing is made again once the window is full or holds this many times its samples."""
 
 
 class SizingPlan:
@@ -41,16 +43,20 @@ class SizingPlan:
         self.in_flight: dict[str, tuple[int, bool]] = {}  # loop -> (samples, partial) of the window being sized
         self.done = 0
 
+    def has_room(self) -> bool:
+        """Whether another sizing may start now (else the caller queues the window)."""
+        return len(self.in_flight) < self.max_in_flight
+
     def wanted(self, report: StictionReport, now_s: float) -> bool:
-        """Whether to size this report's loop now (then ``started`` it)."""
+        """Whether this report's window should be sized (now if ``has_room``, else when a sizing ends)."""
         if report.verdict != "stiction" or report.process.source != "none" or report.loop_id in self.in_flight:
             return False
-        if len(self.in_flight) >= self.max_in_flight:
+        if report.partial and report.n_samples < MIN_PARTIAL_SAMPLES:
             return False
         last = self.latest.get(report.loop_id)
         if last is None or now_s - last.at_s >= self.refresh_s:
             return True
-        return last.partial and report.n_samples >= GROWN * last.n_samples
+        return last.partial and (not report.partial or report.n_samples >= GROWN * last.n_samples)
 
     def started(self, loop_id: str, n_samples: int = 0, partial: bool = False) -> None:
         self.in_flight[loop_id] = (n_samples, partial)

@@ -50,6 +50,20 @@ class Dashboard:
             if reply.ok is not None:
                 self._on_truth(reply.ok)
 
+    def fetch_latest(self, timeout_s: float = 1.0) -> None:
+        """Ask the agents for every loop's latest report: a report can be completed after it was
+        published (a background sizing), and ``get`` answers with it."""
+        for reply in self._session.get(keys.all_reports(self.prefix), timeout=timeout_s):
+            if reply.ok is None:
+                continue
+            report = self._read(StictionReport, reply.ok)
+            if report is None:
+                continue
+            with self._lock:
+                held = self.reports.get(report.loop_id)
+                if held is None or (report.t_end_s or 0.0) >= (held.t_end_s or 0.0):
+                    self.reports[report.loop_id] = report
+
     def snapshot(self) -> tuple[dict[str, StictionReport], dict[str, LoopTruth]]:
         with self._lock:
             return dict(self.reports), dict(self.truths)

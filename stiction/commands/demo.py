@@ -239,6 +239,8 @@ def run(args: argparse.Namespace) -> int:
         try:
             while not stop.wait(2.0 if tty else 10.0):
                 elapsed = time.monotonic() - started
+                if tracks:  # replayed files end: their last report may have been sized since
+                    dashboard.fetch_latest()
                 reports, truths = dashboard.snapshot()
                 text = _table(reports, truths, args.rows, elapsed, published[0], args.loops)
                 if tracks:

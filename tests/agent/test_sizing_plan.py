@@ -32,9 +32,10 @@ def test_only_sticky_loops_of_unknown_process_are_sized_one_at_a_time_and_again_
     assert not plan.wanted(_report(source="declared"), 0.0)
     assert plan.wanted(_report("L1"), 0.0)
     plan.started("L1")
-    assert not plan.wanted(_report("L1"), 1.0) and not plan.wanted(_report("L2"), 1.0)  # one in flight at most
+    assert not plan.wanted(_report("L1"), 1.0) and plan.wanted(_report("L2"), 1.0)
+    assert not plan.has_room()  # one in flight at most: L2 waits for it
     plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 900.0, now_s=10.0)
-    assert plan.wanted(_report("L2"), 11.0)
+    assert plan.wanted(_report("L2"), 11.0) and plan.has_room()
     assert not plan.wanted(_report("L1"), 600.0) and plan.wanted(_report("L1"), 610.0)
 
 
@@ -65,12 +66,15 @@ def test_a_sizing_that_read_nothing_says_why_and_so_does_a_failed_one():
     assert failed.model_copy(update={"warnings": failed.warnings[:-1]}) == _report("L2")
 
 
-def test_a_sizing_from_a_new_loops_partial_window_is_made_again_once_the_window_has_grown():
+def test_a_new_loops_partial_window_is_sized_from_500_samples_and_again_when_full_or_twice_as_long():
     plan = SizingPlan(refresh_s=3600.0)
-    plan.started("L1", n_samples=200, partial=True)
+    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 200, "partial": True}), 0.0)
+    assert plan.wanted(_report("L1").model_copy(update={"n_samples": 500, "partial": True}), 0.0)
+    plan.started("L1", n_samples=500, partial=True)
     plan.finished("L1", Sizing(float("nan"), float("nan"), float("nan"), float("nan"), PROCESS, 1, "1 slip"), 9.0, 0.0)
-    grown = _report("L1").model_copy(update={"n_samples": 300, "partial": True})
-    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 299}), 1.0) and plan.wanted(grown, 1.0)
+    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 999, "partial": True}), 1.0)
+    assert plan.wanted(_report("L1").model_copy(update={"n_samples": 1000, "partial": True}), 1.0)  # twice
+    assert plan.wanted(_report("L1").model_copy(update={"n_samples": 800, "partial": False}), 1.0)  # full
     plan.started("L1", n_samples=1000, partial=False)
     plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 99.0, 2.0)
-    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 1000}), 3.0)  # full: the hour holds
+    assert not plan.wanted(_report("L1"), 3.0)  # a full window's sizing holds for the hour
