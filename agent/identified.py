@@ -94,6 +94,17 @@ def size_in_worker(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str) ->
     return replace(size_safely(op, pv, ts_s, loop_id), model_pv_pct=None)
 
 
+def sizing_pool(workers: int, initializer=None):
+    """Worker processes for sizings: spawned (never forked: the agent runs Zenoh's threads), each
+    with one BLAS thread (numpy's default takes every core; the workers inherit the setting)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=initializer)
+
+
 def lower_priority() -> None:
     """A sizing worker's initializer: it yields the CPU to the agent's reports."""
     with contextlib.suppress(OSError):

@@ -408,7 +408,6 @@ def _process(w: Window, ts_s: float, identified: bool) -> ProcessInfo:
     return ProcessInfo(kind="unknown", source="none", sample_time_s=ts_s)
 
 
-
 def _canonical_level(op, pv, ts_s: float, sps, undeclared: np.ndarray) -> np.ndarray:
     """Which undeclared windows are the thesis's level loop: its PI (Kc 3, Ti 30 s at 1 s sampling)
     read off the record (``ident.controller``); the physical reading then checks the process."""

@@ -10,19 +10,16 @@ with it which loops are this agent's.
 from __future__ import annotations
 
 import logging
-import multiprocessing
-import os
 import threading
 import time
 from collections import deque
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from agent.core import AgentCore, CoreSettings
-from agent.identified import lower_priority, size_in_worker
+from agent.identified import lower_priority, size_in_worker, sizing_pool
 from agent.pipeline import Quantifier, warm_up
 from agent.sizing_plan import SizingPlan
 from schemas import keys
@@ -256,10 +253,7 @@ class AgentService:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
         arrays are views of the rolling buffer, and the pool pickles them later)."""
         if self._size_pool is None:
-            for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-                os.environ.setdefault(var, "1")  # the worker inherits it: one core, not BLAS's every core
-            ctx = multiprocessing.get_context("spawn")  # never fork a process that runs Zenoh's threads
-            self._size_pool = ProcessPoolExecutor(1, mp_context=ctx, initializer=lower_priority)
+            self._size_pool = sizing_pool(1, initializer=lower_priority)
         future = self._size_pool.submit(size_in_worker, op, pv, ts_s, loop_id)
         self._sizings[future] = (loop_id, t_end_s)
         self.sizing.started(loop_id, len(op), partial)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+from concurrent.futures import Future
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -110,24 +111,14 @@ CHUNK = 32
 """Windows quantified before the sizings among them run together on the workers."""
 
 
-class _Done:
-    """A sizing made here, with a future's ``result``."""
-
-    def __init__(self, value):
-        self.value = value
-
-    def result(self):
-        return self.value
-
-
 @dataclass
 class _Item:
     path: Path
     export: object
     window: object
     result: object
-    job: object = None
-    """The sizing this window's report shows (a future or ``_Done``), or None."""
+    job: Future | None = None
+    """The sizing this window's report shows (done here or on a worker), or None."""
     job_t_end_s: float | None = None
     fresh: bool = False
 
@@ -188,7 +179,7 @@ def _size(args, items: list[_Item], sized: dict, pool):
     """Start the sizings these windows need: a sticky window of unknown process, once in
     ``--size-every`` minutes of its file's data; the windows between share the last one.  On
     ``--jobs`` worker processes (started here when first needed); returns the pool."""
-    from agent.identified import size_safely
+    from agent.identified import size_safely, sizing_pool
 
     for item in items:
         r = item.result.report
@@ -201,23 +192,14 @@ def _size(args, items: list[_Item], sized: dict, pool):
             continue
         w = item.window
         if args.jobs > 1:
-            pool = pool or _pool(args.jobs)
+            pool = pool or sizing_pool(args.jobs)
             item.job = pool.submit(size_safely, np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id)
         else:
-            item.job = _Done(size_safely(np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id))
+            item.job = Future()
+            item.job.set_result(size_safely(np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id))
         item.job_t_end_s, item.fresh = t_end, True
         sized[str(item.path)] = (t_end, item.job)
     return pool
-
-
-def _pool(jobs: int):
-    import multiprocessing
-    import os
-    from concurrent.futures import ProcessPoolExecutor
-
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")  # each worker one core
-    return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"))
 
 
 def _finish(args, items: list[_Item], ranked: list) -> None:
