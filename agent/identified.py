@@ -10,6 +10,7 @@ report; ``size_safely`` makes one, a failure becoming the reason it read nothing
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 
@@ -51,7 +52,7 @@ def with_sizing(report: StictionReport, sizing: Sizing, t_end_s: float | None, n
     """``report`` with the sizing's process, S, J, fs and fd, where the report is of a sticky loop of
     unknown process (any other report is returned as it is).  ``t_end_s``: the end of the window
     the sizing was made from; ``note``: a warning added where the numbers are shown."""
-    if report.verdict != "stiction" or report.process.source != "none":
+    if not needs_sizing(report):
         return report
     if sizing.process is None:  # the identification itself failed: say so, the rest stays
         return report.model_copy(update={"warnings": [*report.warnings, NOT_READ_PREFIX + sizing.why]})
@@ -77,6 +78,33 @@ def with_sizing(report: StictionReport, sizing: Sizing, t_end_s: float | None, n
         "warnings": warnings + ([note] if note else []),
     }  # fmt: skip
     return report.model_copy(update=update)
+
+
+def needs_sizing(report: StictionReport) -> bool:
+    """Whether a sizing under an identified process would change ``report``: a loop called sticky
+    whose process is neither declared nor identified as the thesis's."""
+    return report.verdict == "stiction" and report.process.source == "none"
+
+
+def with_sizing_and_model(report: StictionReport, details, sizing: Sizing, t_end_s: float | None, note=None):
+    """``with_sizing``, and the details (``agent.pipeline.Details`` or None) with the identified
+    model's PV where the sizing was made from this very window (``note`` None) and carries it."""
+    report = with_sizing(report, sizing, t_end_s, note)
+    if note is None and details is not None and sizing.model_pv_pct is not None:
+        details = dataclasses.replace(details, model_pv=sizing.model_pv_pct)
+    return report, details
+
+
+def quantify_sized(quantifier, windows, details: bool = False) -> list[tuple[StictionReport, object]]:
+    """``(report, details)`` of each window as ``stiction quantify`` makes them, every sizing done
+    here in turn (``quantifier``: an ``agent.pipeline.Quantifier``; details None unless asked)."""
+    out = []
+    for w, r in zip(windows, quantifier.results(windows, details=details), strict=True):
+        report, d = r.report, r.details
+        if needs_sizing(report):
+            report, d = with_sizing_and_model(report, d, size_safely(w.op, w.pv, w.ts_s, w.loop_id), w.t_end_s)
+        out.append((report, d))
+    return out
 
 
 def identified_warning(sizing: Sizing) -> str:

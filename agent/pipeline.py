@@ -11,9 +11,10 @@ and ``method`` says which one ``fs_pct``/``fd_pct`` come from:
 
 All three read the thesis's level loop: where its process is neither declared nor identified
 (``ident.controller``), ``method`` is ``none`` and the headline numbers are null, the learned
-and thesis readings staying in their blocks, and a warning says why; with ``identify``
-(``stiction quantify``) such a loop called sticky has its own process identified and S and J
-read under it instead (``identified``: ``ident.sizing``, ``agent.identified``).
+and thesis readings staying in their blocks, and a warning says why.  Such a loop called
+sticky has its own process identified and S and J read under it outside this pipeline
+(seconds of CPU a window, ``agent.identified``): by ``stiction quantify`` at once, by the
+agent in the background.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from agent import inlpca, physical
 from agent.acf import acf_period
 from agent.analysis import WindowAnalysis, analyse
 from agent.features import CYCLE_FEATURES, THESIS_WINDOW
-from agent.identified import NOT_IDENTIFIED, NOT_READ_WARNING, size_safely, with_sizing
+from agent.identified import NOT_IDENTIFIED, NOT_READ_WARNING
 from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
 from agent.window import Reading, Window
 from detect import features
@@ -39,7 +40,6 @@ from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
 from ident import controller
 from ident.checks import blocking, data_checks, impossible_friction
-from ident.sizing import Sizing
 from schemas.report import Estimate, ProcessInfo, StictionReport
 from sim.loop import TS_S
 from sim.process import LOOPS
@@ -57,8 +57,6 @@ class Result(NamedTuple):
     reading: Reading | None
     """The friction reading made from this very window (None where the verdict is not stiction, or
     where the window carried an earlier reading)."""
-    sizing: Sizing | None = None
-    """The sizing under the identified process made from this window (``identify``), else None."""
 
 
 READING_FIELDS = (
@@ -115,27 +113,22 @@ class Quantifier:
         own = Path(models_dir) / DETECTOR_FILE if models_dir is not None else None
         self.detector = Detector.load(own if own is not None and own.is_file() else DEFAULT_MODELS_DIR / DETECTOR_FILE)
 
-    def quantify(
-        self, windows: Sequence[Window], denoise: bool | None = None, identify: bool = False
-    ) -> list[StictionReport]:
+    def quantify(self, windows: Sequence[Window], denoise: bool | None = None) -> list[StictionReport]:
         """Reports in the order of ``windows``; windows of equal length and sample time are batched.
 
         The INLPCA and the models run only where the report can use them: windows called sticky,
         and declared level loops (their slips may override the verdict); elsewhere every friction
-        number is null anyway, and so are ``explained`` and ``ood_score``.  With ``identify``, a
-        window called sticky whose process is neither declared nor identified as the thesis's
-        gets its process identified and S and J read under it (``ident.sizing``: seconds of CPU
-        a window, for ``stiction quantify``; the streaming agent leaves it out)."""
-        return [r.report for r in self.results(windows, denoise=denoise, identify=identify)]
+        number is null anyway, and so are ``explained`` and ``ood_score``."""
+        return [r.report for r in self.results(windows, denoise=denoise)]
 
     def quantify_with_details(
-        self, windows: Sequence[Window], denoise: bool | None = None, identify: bool = False
+        self, windows: Sequence[Window], denoise: bool | None = None
     ) -> list[tuple[StictionReport, Details]]:
         """As ``quantify``, with what the pipeline saw in each window (the INLPCA runs on every one)."""
-        return [(r.report, r.details) for r in self.results(windows, denoise=denoise, details=True, identify=identify)]
+        return [(r.report, r.details) for r in self.results(windows, denoise=denoise, details=True)]
 
     def results(
-        self, windows: Sequence[Window], denoise: bool | None = None, details: bool = False, identify: bool = False
+        self, windows: Sequence[Window], denoise: bool | None = None, details: bool = False
     ) -> list[Result]:
         """Report, details (None unless asked for) and the fresh friction reading of every window."""
         for w in windows:
@@ -147,12 +140,12 @@ class Quantifier:
         for (_, ts_s), idx in groups.items():
             op = np.stack([np.asarray(windows[i].op, float) for i in idx])
             pv = np.stack([np.asarray(windows[i].pv, float) for i in idx])
-            batch = self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise, details, identify)
+            batch = self._batch(op, pv, ts_s, [windows[i] for i in idx], denoise, details)
             for j, result in zip(idx, batch, strict=True):
                 out[j] = result
         return out
 
-    def _batch(self, op, pv, ts_s, windows, denoise, details=True, identify=False) -> list[Result]:
+    def _batch(self, op, pv, ts_s, windows, denoise, details=True) -> list[Result]:
         n = op.shape[0]
         sps = [None if w.sp is None else np.asarray(w.sp, float) for w in windows]
         declared = np.array([w.process == "level" for w in windows])
@@ -196,7 +189,6 @@ class Quantifier:
             & (phys.slips <= slip_limit)
         )
         results: list[Result] = []
-        model_pv: dict[int, np.ndarray] = {}
         for i, w in enumerate(windows):
             problems, ev, verdict = problems_all[i], evs[i], verdicts[i]
             if physical_ok[i] and verdict.verdict in ("other_cause", "no_oscillation"):
@@ -210,11 +202,6 @@ class Quantifier:
                 )
             if w.interpolated:
                 warnings.append(f"{w.interpolated} samples interpolated across gaps in the stream")
-            sizing = None
-            if identify and verdict.verdict == "stiction" and not level[i] and not (carried[i] or deferred[i]):
-                sizing = size_safely(op[i], pv[i], ts_s, w.loop_id)
-                if sizing.model_pv_pct is not None:
-                    model_pv[i] = sizing.model_pv_pct
             if not level[i]:
                 warnings.append(NOT_IDENTIFIED)
             if carried[i] or deferred[i]:
@@ -244,17 +231,15 @@ class Quantifier:
             report = self._report(
                 w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified
             )
-            if sizing is not None:
-                report = with_sizing(report, sizing, w.t_end_s)
             reading = None
             if verdict.verdict == "stiction":
                 fields = {k: getattr(report, k) for k in READING_FIELDS}
                 reading = Reading(fields, tuple(warnings[fresh:]), w.t_end_s)
-            results.append(Result(report, None, reading, sizing))
+            results.append(Result(report, None, reading))
         if not details:
             return results
         return [
-            r._replace(details=Details(curves[i], a.fit.denoised[i], model_pv.get(i))) for i, r in enumerate(results)
+            r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)
         ]
 
     def _report(

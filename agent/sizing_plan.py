@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from agent.identified import with_sizing
+from agent.identified import needs_sizing, with_sizing
 from ident.sizing import Sizing
 from schemas.report import StictionReport
 
@@ -49,7 +49,7 @@ class SizingPlan:
 
     def wanted(self, report: StictionReport, now_s: float) -> bool:
         """Whether this report's window should be sized (now if ``has_room``, else when a sizing ends)."""
-        if report.verdict != "stiction" or report.process.source != "none" or report.loop_id in self.in_flight:
+        if not needs_sizing(report) or report.loop_id in self.in_flight:
             return False
         if report.partial and report.n_samples < MIN_PARTIAL_SAMPLES:
             return False

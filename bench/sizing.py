@@ -22,6 +22,7 @@ _QUANTIFIER = None
 
 
 def _one(item) -> dict:
+    from agent.identified import quantify_sized
     from agent.pipeline import Quantifier, Window
     from ident.sizing import MODEL_ERROR_J, MODEL_ERROR_S
     from sim.valve import band_and_jump_pct
@@ -31,7 +32,7 @@ def _one(item) -> dict:
         _QUANTIFIER = Quantifier()
     s_true, j_true, every, (op, pv, sp, ts_s) = item
     started = time.process_time()
-    r = _QUANTIFIER.quantify([Window("loop", op, pv, ts_s=ts_s, sp=sp)], identify=True)[0]
+    r = quantify_sized(_QUANTIFIER, [Window("loop", op, pv, ts_s=ts_s, sp=sp)])[0][0]
     why = next((w for w in r.warnings if w.startswith("S and J not read")), None)
     row = {"s_true": s_true, "j_true": j_true, "every": every, "verdict": r.verdict, "method": r.method,
            "cpu_s": time.process_time() - started, "s": r.s_pct, "j": r.j_pct, "s_se": r.s_se_pct,

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -179,11 +178,10 @@ def _size(args, items: list[_Item], sized: dict, pool):
     """Start the sizings these windows need: a sticky window of unknown process, once in
     ``--size-every`` minutes of its file's data; the windows between share the last one.  On
     ``--jobs`` worker processes (started here when first needed); returns the pool."""
-    from agent.identified import size_safely, sizing_pool
+    from agent.identified import needs_sizing, size_safely, sizing_pool
 
     for item in items:
-        r = item.result.report
-        if args.no_identify or r.verdict != "stiction" or r.process.source != "none":
+        if args.no_identify or not needs_sizing(item.result.report):
             continue
         last = sized.get(str(item.path))
         t_end = item.window.t_end_s
@@ -204,15 +202,13 @@ def _size(args, items: list[_Item], sized: dict, pool):
 
 def _finish(args, items: list[_Item], ranked: list) -> None:
     """The windows' reports, in order, with their sizings: printed, plotted or kept for the ranking."""
-    from agent.identified import with_sizing
+    from agent.identified import with_sizing_and_model
 
     for item in items:
         report, details = item.result.report, item.result.details
         if item.job is not None:
-            sizing = item.job.result()
-            report = with_sizing(report, sizing, item.job_t_end_s, None if item.fresh else CARRIED)
-            if item.fresh and details is not None and sizing.model_pv_pct is not None:
-                details = dataclasses.replace(details, model_pv=sizing.model_pv_pct)
+            note = None if item.fresh else CARRIED
+            report, details = with_sizing_and_model(report, details, item.job.result(), item.job_t_end_s, note)
         if item.export.warnings:
             report = report.model_copy(update={"warnings": [*report.warnings, *item.export.warnings]})
         if args.rank:

@@ -6,6 +6,7 @@ import sys
 import numpy as np
 import pytest
 
+from agent.identified import quantify_sized
 from agent.pipeline import Quantifier, Window
 from schemas.errors import InputError
 from schemas.report import StictionReport
@@ -255,7 +256,7 @@ def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_pro
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
     kept = [(loop, r) for loop, r in zip(loops, simulate_plant(loops), strict=True) if stable(r[0], r[1])]
     windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (_, (op, pv, sp, ts_s)) in enumerate(kept)]
-    reports = quantifier.quantify(windows, identify=True)
+    reports = [r for r, _ in quantify_sized(quantifier, windows)]
     sticky = [(loop, rep) for (loop, _), rep in zip(kept, reports, strict=True) if rep.verdict == "stiction"]
     sized = [(loop, rep) for loop, rep in sticky if rep.method == "identified"]
     assert len(sized) >= 2
@@ -273,7 +274,7 @@ def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_pro
     assert all(rep.process.source == "none" for rep in others)
     specs, r = cases
     plain = [Window(name, r.op[i], r.pv[i]) for i, name in enumerate(specs)]
-    assert quantifier.quantify(plain, identify=True) == quantifier.quantify(plain)
+    assert [r for r, _ in quantify_sized(quantifier, plain)] == quantifier.quantify(plain)
 
 
 def test_the_identified_models_pv_comes_with_the_details_and_follows_the_measured_pv(quantifier):
@@ -282,7 +283,7 @@ def test_the_identified_models_pv_comes_with_the_details_and_follows_the_measure
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
     windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in
                enumerate(simulate_plant(loops)) if stable(op, pv)]  # fmt: skip
-    pairs = quantifier.quantify_with_details(windows, identify=True)
+    pairs = quantify_sized(quantifier, windows, details=True)
     drawn = 0
     for w, (rep, details) in zip(windows, pairs, strict=True):
         if rep.method != "identified":
@@ -306,7 +307,7 @@ def test_an_identification_that_breaks_costs_that_loop_its_numbers_only(quantifi
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
     windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in
                enumerate(simulate_plant(loops)) if stable(op, pv)]  # fmt: skip
-    reports = quantifier.quantify(windows, identify=True)
+    reports = [r for r, _ in quantify_sized(quantifier, windows)]
     sticky = [r for r in reports if r.verdict == "stiction"]
     assert sticky and len(reports) == len(windows)
     for r in sticky:
