@@ -26,6 +26,16 @@ NAMES = (
 EDGE_MEDIAN = 5
 """Median filter width (samples) that removes noise and keeps a slip's edge."""
 TOP_SHARE = 0.05
+STUCK_SPAN_PARTS = 8
+"""The stuck-ramp test's span: an eighth of the window (15 min of a 2-hour window)."""
+STUCK_OP_SHARE = 0.25
+STUCK_PV_SHARE = 0.15
+STUCK_NOISE = 2.5
+STUCK_R2 = 0.95
+"""OP ramps over a quarter of its range, a straight line (R^2 0.95: an integral winding up on a
+constant error, not a load followed), while PV stays within 2.5 times its noise or 15 % of its
+range.  Set on simulated plant-like loops (``stiction bench detect``): at 0.95 no look-alike
+class shows it in more than 4 % of its loops."""
 
 
 @dataclass(frozen=True)
@@ -37,6 +47,12 @@ class Evidence:
     shape_pv: float
     vector: np.ndarray
     """Features in the order of ``NAMES``; nan replaced by neutral values."""
+    stuck_ramp: float = 0.0
+    """Share of the window's spans in which OP ramps while PV stands still (``stuck_ramp``): the
+    valve stuck while the controller winds up, seen without a regular oscillation."""
+    stuck_travel_pct: float = 0.0
+    """The largest OP travel over such a span: a valve that stood still while OP moved that far has
+    a band S of at least about that (``ident.sizing.against_stuck_travel``)."""
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
@@ -54,6 +70,20 @@ def _still_share(y: np.ndarray, pv: np.ndarray, u: np.ndarray) -> float:
     """Share of the window in which PV's filtered level ``y`` stays within its noise while OP moves by
     more than its noise: the valve stuck while the controller winds up."""
     return float(kernels.still_share(*(np.ascontiguousarray(a, dtype=float) for a in (y, pv, u)), EDGE_MEDIAN))
+
+
+def _stuck_ramp(y: np.ndarray, pv: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """(share, OP travel): spans in which OP ``u`` ramps in a straight line while PV's level ``y`` stands still."""
+    arrays = (np.ascontiguousarray(a, dtype=float) for a in (y, pv, u))
+    share, travel = kernels.stuck_ramp(*arrays, STUCK_SPAN_PARTS, STUCK_OP_SHARE, STUCK_PV_SHARE, STUCK_NOISE, STUCK_R2)
+    return float(share), float(travel)
+
+
+def stuck_ramp(op: np.ndarray, pv: np.ndarray) -> tuple[float, float]:
+    """The stuck-ramp share and the largest OP travel of one window's OP and PV (as ``evidence``)."""
+    rows = np.stack([np.asarray(pv, float), np.asarray(op, float)])
+    edges = _edges(rows)
+    return _stuck_ramp(edges[0], rows[0], edges[1])
 
 
 def warm_up() -> None:
@@ -100,4 +130,4 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv) -> Evidence:
             np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv)) + 1e-3),
         ]
     )
-    return Evidence(osc, h, b, si_op, si_pv, vector)
+    return Evidence(osc, h, b, si_op, si_pv, vector, *_stuck_ramp(edges_pv, pv, edges_op))

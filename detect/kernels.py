@@ -145,6 +145,69 @@ def still_share(y, pv, u, edge):
 
 
 @njit(cache=True, nogil=True)
+def _quantile(sorted_x, q):
+    """numpy's default (linear) quantile of an ascending array."""
+    at = q * (sorted_x.size - 1)
+    lo = int(math.floor(at))
+    hi = min(lo + 1, sorted_x.size - 1)
+    return sorted_x[lo] + (at - lo) * (sorted_x[hi] - sorted_x[lo])
+
+
+@njit(cache=True, nogil=True)
+def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
+    """(share, travel): the share of spans (a ``parts``-th of the window, every quarter span) in
+    which OP ``u`` (median-filtered) ramps, a straight line (R^2 >= ``min_r2``) over at least
+    ``op_share`` of its range, while PV's level ``y`` (median-filtered, then averaged over 5
+    samples) stays within ``noise_k`` times PV's noise or ``pv_share`` of its own range; and the
+    largest OP travel over such a span (``detect.features``)."""
+    n = y.size
+    noise = 1.4826 * np.median(np.abs(pv - y)) + 1e-12
+    level = np.empty(n)
+    for k in range(n):
+        total = 0.0
+        for j in range(k - 2, k + 3):
+            total += y[min(max(j, 0), n - 1)]
+        level[k] = total / 5.0
+    s_level, s_u = np.sort(level), np.sort(u)
+    range_pv = _quantile(s_level, 0.975) - _quantile(s_level, 0.025)
+    range_op = _quantile(s_u, 0.975) - _quantile(s_u, 0.025)
+    if range_pv < 6.0 * noise or not range_op > 0:
+        return 0.0, 0.0
+    span = max(n // parts, 10)
+    step = max(span // 4, 1)
+    still = max(noise_k * noise, pv_share * range_pv)
+    count = 0
+    hits = 0
+    travel = 0.0
+    for k in range(0, n - span, step):
+        count += 1
+        moved = abs(u[k + span] - u[k])
+        if moved < op_share * range_op:
+            continue
+        lo, hi = level[k], level[k]
+        for j in range(k, k + span + 1):
+            lo, hi = min(lo, level[j]), max(hi, level[j])
+        if hi - lo > still:
+            continue
+        m = span + 1
+        t_mean = span / 2.0
+        u_mean = 0.0
+        for j in range(k, k + m):
+            u_mean += u[j]
+        u_mean /= m
+        stt = suu = stu = 0.0
+        for j in range(m):
+            dt, du = j - t_mean, u[k + j] - u_mean
+            stt += dt * dt
+            suu += du * du
+            stu += dt * du
+        if suu > 0 and stu * stu / (stt * suu) >= min_r2:
+            hits += 1
+            travel = max(travel, moved)
+    return (hits / count if count else 0.0), travel
+
+
+@njit(cache=True, nogil=True)
 def step_kurtosis(y):
     """Kurtosis of ``y``'s steps (3.0 for steps that never vary)."""
     n = y.size - 1

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from detect.features import evidence
-from detect.verdict import Detector, fit_logistic
+from detect.verdict import Detector, fit_logistic, fit_stuck_rule
 from sim.grid import random_loops
 from sim.loop import simulate
 from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
@@ -19,21 +19,22 @@ MEASURED_WEIGHT = 5.0
 """Weight of one measured tag (split over its windows) against one simulated loop."""
 
 
-def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str]]:
-    """Feature vectors and causes of plant-like loops and of twice as many canonical (thesis) sticky loops,
-    half of them noise-free: the thesis's own loop must be recognised as sticky without flags."""
+def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str], np.ndarray]:
+    """Feature vectors, causes and stuck-ramp shares of plant-like loops and of twice as many canonical
+    (thesis) sticky loops, half of them noise-free: the thesis's own loop must be recognised as sticky
+    without flags."""
     loops = plant_loops(n_per_class, seed)
-    x, causes = [], []
+    evs, causes = [], []
     for loop, (op, pv, sp, ts_s) in zip(loops, simulate_plant(loops), strict=True):
         if stable(op, pv):
-            x.append(evidence(op, pv, ts_s, sp).vector)
+            evs.append(evidence(op, pv, ts_s, sp))
             causes.append(loop.cause)
     canonical = random_loops(n_per_class, seed + 1) + random_loops(n_per_class, seed + 2, noisy=False)
     thesis = simulate(canonical).kept()
     for i in range(thesis.op.shape[0]):
-        x.append(evidence(thesis.op[i], thesis.pv[i], 1.0, thesis.sp[i]).vector)
+        evs.append(evidence(thesis.op[i], thesis.pv[i], 1.0, thesis.sp[i]))
         causes.append("stiction")
-    return np.nan_to_num(np.array(x)), causes
+    return np.nan_to_num(np.array([e.vector for e in evs])), causes, np.array([e.stuck_ramp for e in evs])
 
 
 def train(
@@ -43,8 +44,10 @@ def train(
     measured_sticky: list[bool] | None = None,
     measured_tags: list[str] | None = None,
     trained_on: str = "",
+    stuck_ramp: np.ndarray | None = None,
 ) -> Detector:
-    """The stiction model on everything given; the cause model on the simulated look-alikes."""
+    """The stiction model on everything given; the cause model on the simulated look-alikes; the
+    stuck-valve rule (``stuck_ramp``: the simulated windows' shares) on the simulated windows only."""
     labels = ["stiction" if c == "stiction" else "other" for c in causes]
     weights = np.ones(len(labels))
     features = x
@@ -57,4 +60,5 @@ def train(
     stiction = fit_logistic(features, labels, ("other", "stiction"), weights)
     others = [i for i, c in enumerate(causes) if c != "stiction"]
     cause = fit_logistic(x[others], [causes[i] for i in others], OTHERS)
-    return Detector(stiction, cause, trained_on)
+    stuck = fit_stuck_rule(stuck_ramp, causes) if stuck_ramp is not None else None
+    return Detector(stiction, cause, trained_on, stuck)

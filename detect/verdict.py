@@ -20,6 +20,10 @@ from detect.features import NAMES, Evidence
 
 STICTION_AT = 0.5
 """Stiction probability from which the verdict is ``stiction``."""
+STUCK_AT = 0.1
+"""Stuck-ramp share (``detect.features``) from which the stuck-valve test speaks: 0.6 % of the
+simulated look-alikes of seed 2030 reach it (deadband, noise, external oscillation 1 % each), a
+quarter of the simulated sticky loops."""
 L2 = 1e-2
 
 
@@ -90,15 +94,42 @@ def fit_logistic(
 
 
 @dataclass(frozen=True)
+class StuckRule:
+    """The stuck-valve test beside the logistic model: a window whose OP ramps in a straight line
+    while PV stands still (stuck-ramp share at or above ``at``) is sticky with ``probability``,
+    the share of the simulated training windows at or above ``at`` that were sticky.  The logistic
+    model weighs cycles; a valve that sticks for an hour between setpoint moves shows no cycle."""
+
+    at: float
+    probability: float
+
+    def to_dict(self) -> dict:
+        return {"at": self.at, "probability": self.probability}
+
+
+def fit_stuck_rule(stuck_ramp: np.ndarray, causes: list[str], at: float = STUCK_AT) -> StuckRule:
+    """The rule's probability from simulated windows: sticky among those at or above ``at``
+    (Laplace's rule of succession: never 1 from a handful)."""
+    above = np.asarray(stuck_ramp) >= at
+    sticky = np.array([c == "stiction" for c in causes])
+    return StuckRule(at, float((np.sum(above & sticky) + 1) / (np.sum(above) + 2)))
+
+
+@dataclass(frozen=True)
 class Detector:
     stiction: Logistic
     """Classes ("other", "stiction")."""
     cause: Logistic
     """The look-alikes of ``sim.plant_loops.CLASSES`` other than stiction."""
     trained_on: str
+    stuck: StuckRule | None = None
 
-    def stiction_probability(self, x: np.ndarray) -> np.ndarray:
-        return self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
+    def stiction_probability(self, x: np.ndarray, stuck_ramp: np.ndarray | None = None) -> np.ndarray:
+        """The logistic model's probability, raised to the stuck-valve test's where that test speaks."""
+        p = self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
+        if self.stuck is None or stuck_ramp is None:
+            return p
+        return np.where(np.asarray(stuck_ramp) >= self.stuck.at, np.maximum(p, self.stuck.probability), p)
 
     def save(self, path: Path) -> None:
         body = {
@@ -107,6 +138,8 @@ class Detector:
             "cause": self.cause.to_dict(),
             "trained_on": self.trained_on,
         }
+        if self.stuck is not None:
+            body["stuck_ramp"] = self.stuck.to_dict()
         Path(path).write_text(json.dumps(body, indent=1) + "\n")
 
     @classmethod
@@ -114,7 +147,9 @@ class Detector:
         body = json.loads(Path(path).read_text())
         if tuple(body.get("features", ())) != NAMES:
             raise ValueError(f"{path}: detector trained on features {body.get('features')}, this code computes {NAMES}")
-        return cls(Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"]), body["trained_on"])
+        stuck = body.get("stuck_ramp")
+        rule = StuckRule(float(stuck["at"]), float(stuck["probability"])) if stuck else None
+        return cls(Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"]), body["trained_on"], rule)
 
 
 @dataclass(frozen=True)
@@ -131,9 +166,12 @@ def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Ve
     if blocking_problems:
         return Verdict("bad_data", None, None, "; ".join(blocking_problems))
     x = ev.vector[None, :]
-    p = float(detector.stiction_probability(x)[0])
+    p = float(detector.stiction_probability(x, np.array([ev.stuck_ramp]))[0])
     if p >= STICTION_AT:
-        return Verdict("stiction", p, "stiction", f"stiction probability {p:.2f}")
+        reason = f"stiction probability {p:.2f}"
+        if detector.stuck is not None and ev.stuck_ramp >= detector.stuck.at:
+            reason += f"; OP ramped while PV stood still in {ev.stuck_ramp:.0%} of the window (a stuck valve)"
+        return Verdict("stiction", p, "stiction", reason)
     if not ev.oscillation.oscillating:
         return Verdict(
             "no_oscillation", p, None, f"no regular oscillation (regularity {ev.oscillation.regularity:.2f})"

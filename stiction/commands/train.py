@@ -85,7 +85,7 @@ def train_detector(args: argparse.Namespace) -> int:
 
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
     n_per_class = 60
-    x, causes = training.simulated_set(n_per_class, args.seed + training.SIM_SEED)
+    x, causes, stuck = training.simulated_set(n_per_class, args.seed + training.SIM_SEED)
     mx, sticky, tags = [], [], []
     if args.measured is not None:
         if not args.measured.exists():
@@ -101,7 +101,7 @@ def train_detector(args: argparse.Namespace) -> int:
         f" and {2 * n_per_class} canonical sticky loops (half noise-free)"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
-    detector = training.train(x, causes, np.array(mx) if mx else None, sticky, tags, trained_on)
+    detector = training.train(x, causes, np.array(mx) if mx else None, sticky, tags, trained_on, stuck)
     models_dir.mkdir(parents=True, exist_ok=True)
     detector.save(models_dir / training.DETECTOR_FILE)
     print(f"detector written to {models_dir / training.DETECTOR_FILE}: {trained_on}")

@@ -98,6 +98,29 @@ def still_share(y, pv, u, edge):
     return sum(hits) / len(hits) if hits else 0.0
 
 
+def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
+    from scipy.ndimage import uniform_filter1d
+
+    noise = 1.4826 * np.median(np.abs(pv - y)) + 1e-12
+    level = uniform_filter1d(np.asarray(y, float), 5, mode="nearest")
+    range_pv = np.percentile(level, 97.5) - np.percentile(level, 2.5)
+    range_op = np.percentile(u, 97.5) - np.percentile(u, 2.5)
+    if range_pv < 6 * noise or not range_op > 0:
+        return 0.0, 0.0
+    span = max(len(y) // parts, 10)
+    spans = list(range(0, len(y) - span, max(span // 4, 1)))
+    hits = []
+    for k in spans:
+        seg = u[k : k + span + 1]
+        if abs(seg[-1] - seg[0]) < op_share * range_op:
+            continue
+        if np.ptp(level[k : k + span + 1]) > max(noise_k * noise, pv_share * range_pv):
+            continue
+        if np.corrcoef(np.arange(seg.size), seg)[0, 1] ** 2 >= min_r2:
+            hits.append(abs(seg[-1] - seg[0]))
+    return (len(hits) / len(spans) if spans else 0.0), max(hits, default=0.0)
+
+
 def step_kurtosis(y):
     d = np.diff(y)
     d = d - d.mean()

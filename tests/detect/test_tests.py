@@ -125,3 +125,23 @@ def test_compiled_stick_slip_shares_equal_the_plain_loops(seed):
         assert kernels.jump_share(x, TOP_SHARE) == pytest.approx(reference.jump_share(x, TOP_SHARE), rel=1e-12)
         assert kernels.step_kurtosis(x) == pytest.approx(reference.step_kurtosis(x), rel=1e-9)
     assert kernels.still_share(y, pv, op, EDGE_MEDIAN) == reference.still_share(y, pv, op, EDGE_MEDIAN)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_stuck_ramp_equals_the_plain_loop(seed):
+    from detect import kernels
+    from detect.features import _edges
+    from tests.detect import reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(120, 1500))
+    ramp = np.abs(((np.arange(n) * rng.uniform(2, 4) / n) % 2) - 1)  # OP winds up and down, 1-2 times
+    op = 10 * ramp + rng.uniform(0, 0.2) * rng.standard_normal(n)
+    pv = np.round(op / rng.uniform(5, 8)) + rng.uniform(0.05, 0.2) * rng.standard_normal(n)  # stands still, jumps
+    if seed == 0:
+        pv[:] = 1.0  # PV never moves: nothing to read
+    y, u = _edges(pv[None])[0], _edges(op[None])[0]
+    for args in ((8, 0.25, 0.15, 2.5, 0.95), (4, 0.1, 0.3, 1.0, 0.5)):
+        assert kernels.stuck_ramp(y, pv, u, *args) == pytest.approx(reference.stuck_ramp(y, pv, u, *args), abs=1e-12)
+    share, travel = kernels.stuck_ramp(y, pv, u, 8, 0.25, 0.15, 2.5, 0.95)
+    assert seed == 0 or (share > 0 and 2.5 <= travel <= np.ptp(u))  # a quarter of OP's range at least

@@ -70,3 +70,75 @@ def test_detector_file_names_the_features_it_was_trained_on(tmp_path, detector):
     path.write_text(path.read_text().replace("regularity_log", "something_else"))
     with pytest.raises(ValueError, match="features"):
         Detector.load(path)
+
+
+def _slow_loop(fs_pct: float, load_pct: float, seed: int):
+    """A flow-like loop (gain 1, lag 10 s, dead time 2 s) under a slow PI (Kc 0.5, Ti 150 s), sampled
+    every 10 s: a sticky valve there sticks for minutes while OP winds up, and slips."""
+    from sim.extensions import Extensions
+    from sim.loop import LoopSpec
+    from sim.plant_loops import PlantLoop
+    from sim.process import ProcessModel
+
+    process = ProcessModel(gain=1.0, time_constant_s=10.0, controller_gain=0.5, integral_time_s=150.0)
+    spec = LoopSpec(fs_pct, 0.7 * fs_pct, process=process, extensions=Extensions(dead_time_s=2.0), seed=seed,
+                    sp_pct=50.0)  # fmt: skip
+    loop = PlantLoop(spec, "stiction" if fs_pct else "noise", 10, 0.0, 0.0, 0.05, load_pct)
+    return simulate_plant([loop], warmup_windows=5.0)[0]
+
+
+def test_a_valve_stuck_while_op_ramps_is_found_and_a_slow_load_followed_by_op_is_not(detector):
+    from detect.verdict import STUCK_AT
+
+    assert detector.stuck is not None and detector.stuck.probability > 0.5
+    for seed in range(4):
+        op, pv, sp, ts_s = _slow_loop(3.6, 0.0, seed)  # a band of 1.5 % of span
+        ev = evidence(op, pv, ts_s, sp)
+        assert ev.stuck_ramp >= STUCK_AT
+        v = decide(detector, ev, [])
+        assert v.verdict == "stiction" and v.stiction_probability >= detector.stuck.probability
+        assert "stuck valve" in v.reason
+        # a linear valve, OP following a slow load: PV wanders, OP does not ramp on a still PV
+        for load_pct in (1.0, 2.0):
+            op, pv, sp, ts_s = _slow_loop(0.0, load_pct, seed)
+            assert evidence(op, pv, ts_s, sp).stuck_ramp < STUCK_AT
+
+
+def test_the_stuck_valve_test_raises_the_probability_where_it_speaks_and_nowhere_else(detector):
+    from dataclasses import replace
+
+    from detect.verdict import StuckRule
+
+    x = np.array([evidence(*_slow_loop(3.6, 0.0, s)[:2]).vector for s in range(3)])
+    plain = replace(detector, stuck=None).stiction_probability(x)
+    ruled = replace(detector, stuck=StuckRule(0.1, 0.97)).stiction_probability(x, np.array([0.0, 0.1, 0.5]))
+    assert ruled[0] == plain[0] and ruled[1] == max(plain[1], 0.97) and ruled[2] == max(plain[2], 0.97)
+    assert np.array_equal(detector.stiction_probability(x), plain)  # without shares, the logistic model alone
+
+
+def test_measured_a_valve_that_sticks_between_setpoint_moves_shows_stuck_ramps_a_level_cycle_none():
+    from pathlib import Path
+
+    from agent.historian import read_export
+    from detect.verdict import STUCK_AT
+
+    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+    if not plant.is_dir():
+        pytest.skip("measured plant data not here")
+    stuck = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_ramp
+             for e in map(read_export, sorted(plant.glob("stic_2411FIC20102_10*.csv")))]  # fmt: skip
+    cycling = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_ramp
+               for e in map(read_export, sorted(plant.glob("stic_2111LIC31102B_*.csv")))]  # fmt: skip
+    assert sum(s >= STUCK_AT for s in stuck) >= len(stuck) // 2 and max(cycling) == 0.0
+
+
+def test_a_detector_file_without_the_stuck_valve_test_still_loads(tmp_path, detector):
+    import json
+    from dataclasses import replace
+
+    path = tmp_path / "detector.json"
+    replace(detector, stuck=None).save(path)
+    assert "stuck_ramp" not in json.loads(path.read_text())
+    assert Detector.load(path).stuck is None
+    detector.save(path)
+    assert Detector.load(path).stuck == detector.stuck
