@@ -10,7 +10,9 @@ report is the fit's combined with a model error proportional to S, measured on t
 (``with_model_error``, applied by ``ident.report.diagnosis_report``); and where the fit
 cannot separate S from J (the whole band read as jump: fd at its bound of zero, where a few
 wrong slips move S by a factor of several) or reads fewer than two slips, nothing is reported
-and the reason is.
+and the reason is.  Nor where the band read is less than half the OP travel over which PV
+stood still in the record (``against_stuck_travel``): a valve that stayed put while OP moved
+that far has a band of about that at least, and a fit that says otherwise describes another loop.
 
 Measured on simulated plant-like sticky loops called sticky by the detector (``stiction bench
 sizing`` prints the same on any seed): seeds 2026 and 2027, 60 loops per class, 66 called
@@ -32,6 +34,13 @@ MODEL_ERROR_S = 0.20
 """Standard error of S from the model's mismatch, as a share of S (seeds 2026, 2027 of ``sim.plant_loops``)."""
 MODEL_ERROR_J = 0.30
 """Standard error of J from the model's mismatch, as a share of S."""
+STUCK_TRAVEL_SHARE = 0.5
+"""S + 2 se must reach this share of the stuck OP travel (``detect.features``).  A valve stuck
+while OP moves by d has S >= d (it moves once OP is S past the stuck position on a reversal, J
+in the same direction, J <= S); the half allows for PV's noise hiding a small move.  On the 40
+sticky loops of seed 2030 called sticky, the travel was at most 1.3 times the true S and every
+band read passed; on a measured flow loop (OP up 0.42 % in steps while PV stood still, then a
+slip) it withholds S 0.03 +- 0.01 % from a model whose PV missed the record entirely."""
 PCT_OF_500LBF_PER_PCT_OF_SPAN = 12.0 * 100.0 / 500.0
 """S, J in % of span -> fs, fs - fd in % of 500 lbf (12 lbf per % of OP, ``sim.valve``)."""
 
@@ -86,6 +95,22 @@ def from_report(report) -> Sizing:
         )
         return Sizing(nan, nan, nan, nan, process, slips, why)
     return Sizing(s, j, s_se, j_se, process, slips)
+
+
+def against_stuck_travel(sizing: Sizing, travel_pct: float) -> Sizing:
+    """``sizing``, withheld with the reason where its band is below ``STUCK_TRAVEL_SHARE`` of the
+    OP travel over which PV stood still (``travel_pct``, % of span; 0 where none was seen)."""
+    if not sizing.read or not travel_pct > 0:
+        return sizing
+    if sizing.s_pct + 2 * sizing.s_se_pct >= STUCK_TRAVEL_SHARE * travel_pct:
+        return sizing
+    nan = float("nan")
+    why = (
+        f"the fit reads S {sizing.s_pct:.2g} +- {sizing.s_se_pct:.2g} % of span, but OP moved {travel_pct:.2g} % "
+        "in a straight line while PV stood still, and a valve that stays put through that has a band of about "
+        "that at least: the identified model does not describe this loop"
+    )
+    return replace(sizing, s_pct=nan, j_pct=nan, s_se_pct=nan, j_se_pct=nan, why=why)
 
 
 def with_model_error(f):

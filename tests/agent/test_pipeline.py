@@ -313,3 +313,21 @@ def test_an_identification_that_breaks_costs_that_loop_its_numbers_only(quantifi
     for r in sticky:
         assert r.method == "none" and r.s_pct is None and r.process.source == "none"
         assert any("could not be identified (IndexError: index 7" in w for w in r.warnings)
+
+
+def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantifier):
+    """A measured flow loop whose OP climbed 0.42 % in a straight line with PV standing still, then
+    slipped: the identified model (its PV missing the record) once read S 0.03 +- 0.01 %."""
+    from pathlib import Path
+
+    from agent.historian import read_export
+
+    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+    files = sorted(plant.glob("stic_2_CDU.7040-311_FIC31102_*.csv"))
+    if not files:
+        pytest.skip("measured plant data not here")
+    e = read_export(files[0])
+    (report, _), = quantify_sized(quantifier, [Window("cdu", e.op, e.pv, ts_s=e.ts_s, sp=e.sp)])
+    assert report.verdict == "stiction"  # by the stuck-valve test: the logistic model alone says 0.15
+    assert report.s_pct is None and report.method == "none"
+    assert any("while PV stood still" in w for w in report.warnings)

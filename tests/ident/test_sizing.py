@@ -71,3 +71,18 @@ def test_a_plant_like_loops_band_is_found_under_its_identified_process(sticky_pl
         assert s.process.kind == truly
         precise += s.s_se_pct < 0.5 * s.s_pct  # an estimate, not just an interval
     assert read >= 2 and precise >= 1
+
+
+@pytest.mark.parametrize(
+    "s_pct, s_se_pct, travel_pct, kept",
+    [(10.0, 1.0, 0.0, True), (10.0, 1.0, 20.0, True), (10.0, 1.0, 24.1, False), (0.03, 0.01, 0.42, False)],
+)
+def test_a_band_below_half_the_stuck_op_travel_is_withheld(s_pct, s_se_pct, travel_pct, kept):
+    from ident.sizing import against_stuck_travel
+
+    s = against_stuck_travel(from_report(_report(s_pct=s_pct, s_se_pct=s_se_pct)), travel_pct)
+    assert s.read == kept
+    if not kept:
+        assert math.isnan(s.s_pct) and math.isnan(s.j_se_pct) and "while PV stood still" in s.why
+    unread = from_report(_report(s_pct=None))
+    assert against_stuck_travel(unread, travel_pct) == unread  # a reason already given stays
