@@ -30,15 +30,12 @@ NOT_READ_PREFIX = "S and J not read under the identified process: "
 
 
 def size_safely(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str) -> Sizing:
-    """``ident.sizing.size``, checked against the OP travel over which PV stood still
-    (``ident.sizing.against_stuck_travel``); a failure of the identification becoming the reason
-    nothing was read."""
-    from detect.features import stuck_ramp
-    from ident.sizing import against_stuck_travel, size
+    """``ident.sizing.size``, a failure of the identification becoming the reason nothing was read."""
+    from ident.sizing import size
     from schemas.errors import StictionError
 
     try:
-        return against_stuck_travel(size(op, pv, ts_s, loop_id), stuck_ramp(op, pv)[1])
+        return size(op, pv, ts_s, loop_id)
     except StictionError as e:
         why = str(e)
     except Exception as e:  # noqa: BLE001 - a fit that breaks on one loop must cost that loop's numbers only

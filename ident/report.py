@@ -6,12 +6,13 @@ import math
 
 import numpy as np
 
+from detect.features import stuck_ramp
 from ident.checks import blocking, data_checks, impossible_friction
 from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
 from ident.fit import Friction, ValveFit
 from ident.process import NOMINAL
 from ident.record import Record
-from ident.sizing import with_model_error
+from ident.sizing import stuck_travel_contradicts, with_model_error
 from schemas import diagnosis as schema
 
 
@@ -116,6 +117,10 @@ def diagnosis_report(
     withheld = linear or impossible_valve(f, op_range) or blocking(problems)
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
     f = _without_friction(f) if withheld else with_model_error(f)
+    contradicted = stuck_travel_contradicts(f.s_pct, f.s_se_pct, stuck_ramp(record.op_pct, record.pv_pct)[1])
+    if contradicted:
+        notes.append(contradicted)
+        f = _without_friction(f)
     base_friction = (
         d.base_friction
         if not (impossible_valve(d.base_friction, op_range) or blocking(problems))

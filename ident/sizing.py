@@ -11,7 +11,8 @@ report is the fit's combined with a model error proportional to S, measured on t
 cannot separate S from J (the whole band read as jump: fd at its bound of zero, where a few
 wrong slips move S by a factor of several) or reads fewer than two slips, nothing is reported
 and the reason is.  Nor where the band read is less than half the OP travel over which PV
-stood still in the record (``against_stuck_travel``): a valve that stayed put while OP moved
+stood still in the record (``stuck_travel_contradicts``, applied by
+``ident.report.diagnosis_report``): a valve that stayed put while OP moved
 that far has a band of about that at least, and a fit that says otherwise describes another loop.
 
 Measured on simulated plant-like sticky loops called sticky by the detector (``stiction bench
@@ -97,20 +98,16 @@ def from_report(report) -> Sizing:
     return Sizing(s, j, s_se, j_se, process, slips)
 
 
-def against_stuck_travel(sizing: Sizing, travel_pct: float) -> Sizing:
-    """``sizing``, withheld with the reason where its band is below ``STUCK_TRAVEL_SHARE`` of the
-    OP travel over which PV stood still (``travel_pct``, % of span; 0 where none was seen)."""
-    if not sizing.read or not travel_pct > 0:
-        return sizing
-    if sizing.s_pct + 2 * sizing.s_se_pct >= STUCK_TRAVEL_SHARE * travel_pct:
-        return sizing
-    nan = float("nan")
-    why = (
-        f"the fit reads S {sizing.s_pct:.2g} +- {sizing.s_se_pct:.2g} % of span, but OP moved {travel_pct:.2g} % "
-        "in a straight line while PV stood still, and a valve that stays put through that has a band of about "
-        "that at least: the identified model does not describe this loop"
+def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -> str | None:
+    """Why a band is withheld where S + 2 se is below ``STUCK_TRAVEL_SHARE`` of the OP travel over
+    which PV stood still (``travel_pct``, % of span; 0 where none was seen), else None."""
+    if not (travel_pct > 0 and math.isfinite(s_pct)) or s_pct + 2 * s_se_pct >= STUCK_TRAVEL_SHARE * travel_pct:
+        return None
+    return (
+        f"the fit reads S {s_pct:.2g} +- {s_se_pct:.2g} % of span, but OP moved {travel_pct:.2g} % in a straight "
+        "line while PV stood still, and a valve that stays put through that has a band of about that at least: "
+        "the identified model does not describe this loop, its friction numbers are withheld"
     )
-    return replace(sizing, s_pct=nan, j_pct=nan, s_se_pct=nan, j_se_pct=nan, why=why)
 
 
 def with_model_error(f):
