@@ -6,7 +6,9 @@ sizes each such loop once every ``refresh_s`` on a worker of its own, at most ``
 at a time, and every report of the loop while it is called sticky carries the last sizing
 (``estimate_t_end_s`` names the window it came from).  A new loop's partial window is sized
 from ``MIN_PARTIAL_SAMPLES`` on (a 200-sample start often holds too few slips), and again once
-the window is full or twice as long.  Pure: no clock, no processes.
+the window is full or twice as long; where the partial window read nothing, already at half as
+long again (a stream that ends before its window fills, as a replayed 751-sample export does,
+is then still sized on most of its record).  Pure: no clock, no processes.
 """
 
 from __future__ import annotations
@@ -33,6 +35,8 @@ MIN_PARTIAL_SAMPLES = 500
 """A new loop's partial window is sized once it holds this many samples."""
 GROWN = 2.0
 """A partial window's sizing is made again once the window is full or holds this many times its samples."""
+GROWN_UNREAD = 1.5
+"""... or this many times, where the partial window's sizing read no S and J."""
 
 
 class SizingPlan:
@@ -56,7 +60,8 @@ class SizingPlan:
         last = self.latest.get(report.loop_id)
         if last is None or now_s - last.at_s >= self.refresh_s:
             return True
-        return last.partial and (not report.partial or report.n_samples >= GROWN * last.n_samples)
+        grown = GROWN if last.sizing.read else GROWN_UNREAD
+        return last.partial and (not report.partial or report.n_samples >= grown * last.n_samples)
 
     def started(self, loop_id: str, n_samples: int = 0, partial: bool = False) -> None:
         self.in_flight[loop_id] = (n_samples, partial)

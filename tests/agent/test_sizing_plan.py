@@ -71,10 +71,23 @@ def test_a_new_loops_partial_window_is_sized_from_500_samples_and_again_when_ful
     assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 200, "partial": True}), 0.0)
     assert plan.wanted(_report("L1").model_copy(update={"n_samples": 500, "partial": True}), 0.0)
     plan.started("L1", n_samples=500, partial=True)
-    plan.finished("L1", Sizing(float("nan"), float("nan"), float("nan"), float("nan"), PROCESS, 1, "1 slip"), 9.0, 0.0)
+    plan.finished("L1", Sizing(1.0, 0.2, 0.3, 0.4, PROCESS, 4), 9.0, 0.0)  # read
     assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 999, "partial": True}), 1.0)
     assert plan.wanted(_report("L1").model_copy(update={"n_samples": 1000, "partial": True}), 1.0)  # twice
     assert plan.wanted(_report("L1").model_copy(update={"n_samples": 800, "partial": False}), 1.0)  # full
     plan.started("L1", n_samples=1000, partial=False)
     plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 99.0, 2.0)
     assert not plan.wanted(_report("L1"), 3.0)  # a full window's sizing holds for the hour
+
+
+def test_a_partial_window_that_read_nothing_is_sized_again_at_half_as_long_again():
+    """A stream that ends before its window fills (a replayed 751-sample export) is still sized on most of it."""
+    plan = SizingPlan(refresh_s=3600.0)
+    plan.started("L1", n_samples=500, partial=True)
+    plan.finished("L1", Sizing(float("nan"), float("nan"), float("nan"), float("nan"), PROCESS, 1, "1 slip"), 9.0, 0.0)
+    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 749, "partial": True}), 1.0)
+    assert plan.wanted(_report("L1").model_copy(update={"n_samples": 750, "partial": True}), 1.0)
+    plan.started("L1", n_samples=750, partial=True)
+    plan.finished("L1", Sizing(1.0, 0.2, 0.3, 0.4, PROCESS, 4), 19.0, 2.0)  # read: then twice as long, or full
+    assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 1125, "partial": True}), 3.0)
+    assert plan.wanted(_report("L1").model_copy(update={"n_samples": 1000, "partial": False}), 3.0)
