@@ -55,15 +55,12 @@ def plot_loop(out: Path, window, report, details) -> Path:
     handles = ax_t.get_legend_handles_labels()[0] + ax_pv.get_legend_handles_labels()[0]
     ax_t.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(handles), fontsize=8)
     ax_c.plot(window.op, window.pv, ".", ms=2.5, color="0.6", label="measured")
-    ax_c.plot(
-        details.denoised[:, 0],
-        details.denoised[:, 1],
-        ".",
-        ms=2.5,
-        color="tab:blue",
-        label="denoised (each sample on the curve)",
-    )
-    ax_c.plot(details.curve[:, 0], details.curve[:, 1], "-", lw=1.5, color="tab:red", label="INLPCA curve")
+    if getattr(report, "oscillating", True):
+        ax_c.plot(details.denoised[:, 0], details.denoised[:, 1], ".", ms=2.5, color="tab:blue",
+                  label="denoised (each sample on the curve)")  # fmt: skip
+        ax_c.plot(details.curve[:, 0], details.curve[:, 1], "-", lw=1.5, color="tab:red", label="INLPCA curve")
+    else:  # a closed curve through a record with no cycle would draw a shape the data do not have
+        ax_c.set_title("no regular cycle: no INLPCA curve", fontsize=9)
     ax_c.set_xlabel("OP, percent")
     ax_c.set_ylabel("PV")
     ax_c.legend(loc="best", fontsize=8)

@@ -38,3 +38,22 @@ def test_the_identified_models_pv_is_drawn_and_the_title_fits(tmp_path):
     assert b.shape[0] > a.shape[0]  # room for every title line
     green = (a[..., 1] > 0.4) & (a[..., 0] < 0.3) & (a[..., 2] < 0.3)  # tab:green, the model's PV
     assert green.sum() > 200
+
+
+def test_the_inlpca_curve_is_drawn_only_over_a_cycle(tmp_path):
+    import matplotlib.image as mpimg
+
+    n = 600
+    t = np.arange(n, dtype=float)
+    op, pv = 50 + 5 * np.sign(np.sin(t / 40)), 50 + np.sin(t / 40)
+    ring = np.linspace(0, 2 * np.pi, 129)
+    details = SimpleNamespace(curve=np.c_[50 + 5 * np.cos(ring), 50 + np.sin(ring)], denoised=np.c_[op, pv],
+                              model_pv=None)  # fmt: skip
+    window = SimpleNamespace(op=op, pv=pv, ts_s=1.0, t_end_s=float(n), sp=None)
+    red = {}
+    for oscillating in (True, False):
+        report = _report([])
+        report.oscillating = oscillating
+        img = mpimg.imread(plot_loop(tmp_path / f"{oscillating}.png", window, report, details))
+        red[oscillating] = int(((img[..., 0] > 0.7) & (img[..., 1] < 0.3) & (img[..., 2] < 0.3)).sum())  # tab:red
+    assert red[True] > 200 and red[False] == 0
