@@ -206,7 +206,7 @@ class RerunSink:
         now = self.clock()
         if now - self._cloud_at.get(loop_id, -math.inf) >= self.min_cloud_interval_s:
             self._cloud_at[loop_id] = now
-            self._log_clouds(loop_id, window, details)
+            self._log_clouds(loop_id, window, details, bool(getattr(report, "oscillating", True)))
             flags = _flags_markdown(report)
             if self._flags.get(loop_id) != flags:  # the flags with the clouds they describe
                 self._flags[loop_id] = flags
@@ -230,11 +230,18 @@ class RerunSink:
         for v in buf.values():
             v.clear()
 
-    def _log_clouds(self, loop_id: str, window, details) -> None:
-        """The OP-PV points thinned, and the curve where it moved since it was last logged."""
+    def _log_clouds(self, loop_id: str, window, details, oscillating: bool = True) -> None:
+        """The OP-PV points thinned, and the curve where it moved since it was last logged; over a
+        window without a cycle the raw points alone (the curve and its points cleared once: a closed
+        curve through a record with no cycle draws a shape the data do not have)."""
         rec, sl = self.recording, thin(len(window.op), self.max_cloud_points)
         op, pv = np.asarray(window.op, np.float32)[sl], np.asarray(window.pv, np.float32)[sl]
         rec.log(path(loop_id, "raw"), rr.Points2D(np.column_stack([op, -pv]), radii=0.08, colors=[150, 150, 150]))
+        if not oscillating:
+            if self._curve.pop(loop_id, None) is not None:
+                rec.log(path(loop_id, "clean"), rr.Clear(recursive=False))
+                rec.log(path(loop_id, "curve"), rr.Clear(recursive=False))
+            return
         clean = np.asarray(details.denoised, np.float32)[sl]
         rec.log(
             path(loop_id, "clean"),

@@ -93,3 +93,29 @@ def quantifier_fixture():
     from agent.pipeline import Quantifier
 
     return Quantifier()
+
+
+def test_a_window_without_a_cycle_shows_its_points_and_no_curve(tmp_path, quantifier_fixture):
+    """The same loop oscillating, then not (the report says so), then oscillating again: the curve is
+    logged, cleared once, and logged again; the raw points every time."""
+    specs = case_specs(seed=1)
+    r = simulate([specs["C4"]], duration_s=1600).kept()
+    w = Window("C4", r.op[0, -300:], r.pv[0, -300:], 1.0, float(r.t_s[-1]), "level")
+    (report, details), = quantifier_fixture.quantify_with_details([w])
+    assert report.oscillating
+    file = tmp_path / "rec.rrd"
+    sink = RerunSink(f"save:{file}", min_cloud_interval_s=0)
+    still = report.model_copy(update={"oscillating": False})
+    for k, rep in enumerate((report, still, still, report)):
+        sink.log_report(rep, Window("C4", w.op, w.pv, 1.0, w.t_end_s + 10 * k, "level"), details)
+    sink.close()
+    rows: Counter[str] = Counter()
+    cleared: Counter[str] = Counter()
+    for chunk in rr.chunk.RrdReader(file).stream().to_chunks():
+        if not chunk.is_static:
+            rows[chunk.entity_path.lstrip("/")] += chunk.num_rows
+            names = chunk.to_record_batch().schema.names
+            cleared[chunk.entity_path.lstrip("/")] += any(n.startswith("Clear:") for n in names)
+    assert rows[path("C4", "raw")] == 4
+    assert rows[path("C4", "curve")] == 3 and cleared[path("C4", "curve")] == 1  # logged, cleared once, logged
+    assert rows[path("C4", "clean")] == 3 and cleared[path("C4", "clean")] == 1
