@@ -50,9 +50,6 @@ class Evidence:
     stuck_ramp: float = 0.0
     """Share of the window's spans in which OP ramps while PV stands still (``stuck_ramp``): the
     valve stuck while the controller winds up, seen without a regular oscillation."""
-    stuck_travel_pct: float = 0.0
-    """The largest OP travel over such a span: a valve that stood still while OP moved that far has
-    a band S of at least about that (``ident.sizing.against_stuck_travel``)."""
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
@@ -80,7 +77,9 @@ def _stuck_ramp(y: np.ndarray, pv: np.ndarray, u: np.ndarray) -> tuple[float, fl
 
 
 def stuck_ramp(op: np.ndarray, pv: np.ndarray) -> tuple[float, float]:
-    """The stuck-ramp share and the largest OP travel of one window's OP and PV (as ``evidence``)."""
+    """The stuck-ramp share and the largest OP travel over such a span, of one window's OP and PV (as
+    ``evidence``): a valve that stood still while OP moved that far has a band S of about that at
+    least (``ident.sizing.stuck_travel_contradicts``)."""
     rows = np.stack([np.asarray(pv, float), np.asarray(op, float)])
     edges = _edges(rows)
     return _stuck_ramp(edges[0], rows[0], edges[1])
@@ -130,4 +129,4 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv) -> Evidence:
             np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv)) + 1e-3),
         ]
     )
-    return Evidence(osc, h, b, si_op, si_pv, vector, *_stuck_ramp(edges_pv, pv, edges_op))
+    return Evidence(osc, h, b, si_op, si_pv, vector, _stuck_ramp(edges_pv, pv, edges_op)[0])

@@ -117,10 +117,11 @@ def diagnosis_report(
     withheld = linear or impossible_valve(f, op_range) or blocking(problems)
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
     f = _without_friction(f) if withheld else with_model_error(f)
-    contradicted = stuck_travel_contradicts(f.s_pct, f.s_se_pct, stuck_ramp(record.op_pct, record.pv_pct)[1])
-    if contradicted:
-        notes.append(contradicted)
-        f = _without_friction(f)
+    if not withheld:  # a band read: does the OP travel over which PV stood still allow it?
+        contradicted = stuck_travel_contradicts(f.s_pct, f.s_se_pct, stuck_ramp(record.op_pct, record.pv_pct)[1])
+        if contradicted:
+            notes.append(contradicted)
+            f = _without_friction(f)
     base_friction = (
         d.base_friction
         if not (impossible_valve(d.base_friction, op_range) or blocking(problems))
