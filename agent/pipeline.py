@@ -194,7 +194,7 @@ class Quantifier:
             if physical_ok[i] and verdict.verdict in ("other_cause", "no_oscillation"):
                 # the declared level loop's slips read fs and fd: the valve's own evidence outweighs the cycle's shape
                 verdict = Verdict("stiction", verdict.stiction_probability, "stiction", "the slips read fs and fd")
-            warnings = [c.message for c in problems]
+            warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
             if w.full_samples is not None and len(w.op) < w.full_samples:
                 warnings.append(
                     f"partial window: {len(w.op)} of {w.full_samples} samples (a new loop); "

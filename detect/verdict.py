@@ -159,6 +159,9 @@ class Verdict:
     stiction_probability: float | None
     likely_cause: str | None
     reason: str
+    stuck_valve: str | None = None
+    """Where the stuck-valve test called it: what it saw, for the report's warnings (the engineer
+    reads why a loop without a cycle is called sticky)."""
 
 
 def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Verdict:
@@ -168,10 +171,12 @@ def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Ve
     x = ev.vector[None, :]
     p = float(detector.stiction_probability(x, np.array([ev.stuck_ramp]))[0])
     if p >= STICTION_AT:
-        reason = f"stiction probability {p:.2f}"
+        stuck = None
         if detector.stuck is not None and ev.stuck_ramp >= detector.stuck.at:
-            reason += f"; OP ramped while PV stood still in {ev.stuck_ramp:.0%} of the window (a stuck valve)"
-        return Verdict("stiction", p, "stiction", reason)
+            stuck = (f"stuck valve: OP ramped in a straight line while PV stood still in {ev.stuck_ramp:.0%} of the "
+                     "window (the controller winding up on a valve that does not move)")  # fmt: skip
+        reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "")
+        return Verdict("stiction", p, "stiction", reason, stuck)
     if not ev.oscillation.oscillating:
         return Verdict(
             "no_oscillation", p, None, f"no regular oscillation (regularity {ev.oscillation.regularity:.2f})"

@@ -329,5 +329,6 @@ def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantif
     e = read_export(files[0])
     (report, _), = quantify_sized(quantifier, [Window("cdu", e.op, e.pv, ts_s=e.ts_s, sp=e.sp)])
     assert report.verdict == "stiction"  # by the stuck-valve test: the logistic model alone says 0.15
+    assert any(w.startswith("stuck valve: OP ramped in a straight line while PV stood still") for w in report.warnings)
     assert report.s_pct is None and report.method == "none"
     assert any("while PV stood still" in w for w in report.warnings)
