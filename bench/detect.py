@@ -11,8 +11,8 @@ Two sets, same run:
 Methods: Horch's cross-correlation test (stiction where it reads an odd CCF), Choudhury's
 bicoherence test (nonlinear and oscillating), He et al.'s shape test (SI of OP > 0.6), and
 the project's verdict (data checks, then the detector's stiction probability >= 0.5), with
-its stuck-valve test (OP ramps while PV stands still, ``detect.verdict.StuckRule``) alone
-beside it.
+its stuck-valve tests (OP ramps while PV stands still; a setpoint step PV followed only
+after OP had ramped, ``detect.verdict.StuckRule``) alone beside it.
 """
 
 from __future__ import annotations
@@ -29,11 +29,12 @@ METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
     from detect.shape import STICTION as SHAPE_STICTION
-    from detect.verdict import STUCK_AT
+    from detect.verdict import STEP_AT, STUCK_AT
 
+    ramp, step = ev.stuck
     return {
         "ours": bool(not blocked and p_stiction >= 0.5),
-        "stuck": bool(not blocked and ev.stuck_ramp >= STUCK_AT),
+        "stuck": bool(not blocked and (ramp >= STUCK_AT or step >= STEP_AT)),
         "horch": ev.horch.verdict == "stiction",
         "bicoherence": bool(ev.bicoherence.nonlinear and ev.oscillation.oscillating),
         "shape": bool(np.isfinite(ev.shape_op) and ev.shape_op > SHAPE_STICTION),
@@ -54,7 +55,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
 
     t0 = time.perf_counter()
     x_train, causes_train, stuck_train = training.simulated_set(train_per_class, SIM_SEED)
-    detector = training.train(x_train, causes_train, stuck_ramp=stuck_train)
+    detector = training.train(x_train, causes_train, stuck=stuck_train)
     out: dict = {"simulated": {}, "measured": {}}
 
     loops = plant_loops(n_per_class, seed)
@@ -65,7 +66,8 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     loops, records = [loops[i] for i in kept], [records[i] for i in kept]
     evs = [evidence(op, pv, ts_s, sp) for op, pv, sp, ts_s in records]
     feature_s = (time.perf_counter() - t1) / len(loops)
-    p = detector.stiction_probability(np.nan_to_num(np.array([e.vector for e in evs])), [e.stuck_ramp for e in evs])
+    x_sim = np.nan_to_num(np.array([e.vector for e in evs]))
+    p = detector.stiction_probability(x_sim, np.array([e.stuck for e in evs]))
     for cls in CLASSES:
         idx = [i for i, loop in enumerate(loops) if loop.cause == cls]
         called = [_calls(evs[i], p[i], _blocked(records[i][0], records[i][1])) for i in idx]
@@ -79,14 +81,14 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     if rows:
         tags = [r[0] for r in rows]
         xm = np.nan_to_num(np.array([r[2].vector for r in rows]))
-        stuck_m = np.array([r[2].stuck_ramp for r in rows])
+        stuck_m = np.array([r[2].stuck for r in rows])
         sticky = [r[1] for r in rows]
         p_cv = np.zeros(len(rows))
         for tag in sorted(set(tags)):
             keep = [i for i, t in enumerate(tags) if t != tag]
             held = [i for i, t in enumerate(tags) if t == tag]
             d = training.train(x_train, causes_train, xm[keep], [sticky[i] for i in keep], [tags[i] for i in keep],
-                               stuck_ramp=stuck_train)  # fmt: skip
+                               stuck=stuck_train)  # fmt: skip
             p_cv[held] = d.stiction_probability(xm[held], stuck_m[held])
         calls = [_calls(r[2], p_cv[i], r[3]) for i, r in enumerate(rows)]
         p_sim = detector.stiction_probability(xm, stuck_m)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import median_filter
 
-from detect import bicoherence, horch, kernels, oscillation, shape
+from detect import bicoherence, horch, kernels, oscillation, setpoint, shape
 
 NAMES = (
     "regularity_log",
@@ -50,6 +50,15 @@ class Evidence:
     stuck_ramp: float = 0.0
     """Share of the window's spans in which OP ramps while PV stands still (``stuck_ramp``): the
     valve stuck while the controller winds up, seen without a regular oscillation."""
+    stuck_step: setpoint.StuckStep | None = None
+    """The setpoint step whose response shows the stuck valve best (the largest OP travel), if any
+    (``detect.setpoint``)."""
+
+    @property
+    def stuck(self) -> np.ndarray:
+        """The two stuck-valve tests' statistics, as ``detect.verdict.Detector`` weighs them: the
+        stuck-ramp share and the stuck setpoint step's OP travel in shares of OP's range (0: none)."""
+        return np.array([self.stuck_ramp, self.stuck_step.travel_share if self.stuck_step else 0.0])
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
@@ -129,4 +138,6 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv) -> Evidence:
             np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv)) + 1e-3),
         ]
     )
-    return Evidence(osc, h, b, si_op, si_pv, vector, _stuck_ramp(edges_pv, pv, edges_op)[0])
+    steps = setpoint.stuck_steps(edges_op, edges_pv, pv, sp)
+    step = max(steps, key=lambda st: st.travel_share) if steps else None
+    return Evidence(osc, h, b, si_op, si_pv, vector, _stuck_ramp(edges_pv, pv, edges_op)[0], step)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from detect.features import evidence
-from detect.verdict import Detector, fit_logistic, fit_stuck_rule
+from detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
 from sim.grid import random_loops
 from sim.loop import simulate
 from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
@@ -20,9 +20,9 @@ MEASURED_WEIGHT = 5.0
 
 
 def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str], np.ndarray]:
-    """Feature vectors, causes and stuck-ramp shares of plant-like loops and of twice as many canonical
-    (thesis) sticky loops, half of them noise-free: the thesis's own loop must be recognised as sticky
-    without flags."""
+    """Feature vectors, causes and stuck-valve statistics (``Evidence.stuck``, [n, 2]) of plant-like
+    loops and of twice as many canonical (thesis) sticky loops, half of them noise-free: the
+    thesis's own loop must be recognised as sticky without flags."""
     loops = plant_loops(n_per_class, seed)
     evs, causes = [], []
     for loop, (op, pv, sp, ts_s) in zip(loops, simulate_plant(loops), strict=True):
@@ -34,7 +34,7 @@ def simulated_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str], n
     for i in range(thesis.op.shape[0]):
         evs.append(evidence(thesis.op[i], thesis.pv[i], 1.0, thesis.sp[i]))
         causes.append("stiction")
-    return np.nan_to_num(np.array([e.vector for e in evs])), causes, np.array([e.stuck_ramp for e in evs])
+    return np.nan_to_num(np.array([e.vector for e in evs])), causes, np.array([e.stuck for e in evs])
 
 
 def train(
@@ -44,10 +44,10 @@ def train(
     measured_sticky: list[bool] | None = None,
     measured_tags: list[str] | None = None,
     trained_on: str = "",
-    stuck_ramp: np.ndarray | None = None,
+    stuck: np.ndarray | None = None,
 ) -> Detector:
     """The stiction model on everything given; the cause model on the simulated look-alikes; the
-    stuck-valve rule (``stuck_ramp``: the simulated windows' shares) on the simulated windows only."""
+    stuck-valve rules (``stuck``: the simulated windows' ``Evidence.stuck``) on the simulated windows only."""
     labels = ["stiction" if c == "stiction" else "other" for c in causes]
     weights = np.ones(len(labels))
     features = x
@@ -60,5 +60,8 @@ def train(
     stiction = fit_logistic(features, labels, ("other", "stiction"), weights)
     others = [i for i, c in enumerate(causes) if c != "stiction"]
     cause = fit_logistic(x[others], [causes[i] for i in others], OTHERS)
-    stuck = fit_stuck_rule(stuck_ramp, causes) if stuck_ramp is not None else None
-    return Detector(stiction, cause, trained_on, stuck)
+    ramp = step = None
+    if stuck is not None:
+        stuck = np.asarray(stuck, float).reshape(-1, 2)
+        ramp, step = fit_stuck_rule(stuck[:, 0], causes), fit_stuck_rule(stuck[:, 1], causes, STEP_AT)
+    return Detector(stiction, cause, trained_on, ramp, step)

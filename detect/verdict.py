@@ -24,6 +24,9 @@ STUCK_AT = 0.1
 """Stuck-ramp share (``detect.features``) from which the stuck-valve test speaks: 0.6 % of the
 simulated look-alikes of seed 2030 reach it (deadband, noise, external oscillation 1 % each), a
 quarter of the simulated sticky loops."""
+STEP_AT = 0.25
+"""Stuck setpoint step (``detect.setpoint``): OP's travel over the still phase in shares of its
+range from which the test speaks (the step qualifies only from there)."""
 L2 = 1e-2
 
 
@@ -95,10 +98,12 @@ def fit_logistic(
 
 @dataclass(frozen=True)
 class StuckRule:
-    """The stuck-valve test beside the logistic model: a window whose OP ramps in a straight line
-    while PV stands still (stuck-ramp share at or above ``at``) is sticky with ``probability``,
-    the share of the simulated training windows at or above ``at`` that were sticky.  The logistic
-    model weighs cycles; a valve that sticks for an hour between setpoint moves shows no cycle."""
+    """A stuck-valve test beside the logistic model: a window whose statistic is at or above ``at``
+    is sticky with ``probability``, the share of the simulated training windows at or above ``at``
+    that were sticky.  Two such tests: OP ramping in a straight line while PV stands still
+    (stuck-ramp share), and a setpoint step PV followed only after OP had ramped, then with a
+    jump (``detect.setpoint``).  The logistic model weighs cycles; a valve that sticks for an
+    hour between setpoint moves shows no cycle."""
 
     at: float
     probability: float
@@ -107,10 +112,10 @@ class StuckRule:
         return {"at": self.at, "probability": self.probability}
 
 
-def fit_stuck_rule(stuck_ramp: np.ndarray, causes: list[str], at: float = STUCK_AT) -> StuckRule:
+def fit_stuck_rule(statistic: np.ndarray, causes: list[str], at: float = STUCK_AT) -> StuckRule:
     """The rule's probability from simulated windows: sticky among those at or above ``at``
     (Laplace's rule of succession: never 1 from a handful)."""
-    above = np.asarray(stuck_ramp) >= at
+    above = np.asarray(statistic) >= at
     sticky = np.array([c == "stiction" for c in causes])
     return StuckRule(at, float((np.sum(above & sticky) + 1) / (np.sum(above) + 2)))
 
@@ -123,13 +128,21 @@ class Detector:
     """The look-alikes of ``sim.plant_loops.CLASSES`` other than stiction."""
     trained_on: str
     stuck: StuckRule | None = None
+    """The stuck-ramp test."""
+    step: StuckRule | None = None
+    """The stuck setpoint step test."""
 
-    def stiction_probability(self, x: np.ndarray, stuck_ramp: np.ndarray | None = None) -> np.ndarray:
-        """The logistic model's probability, raised to the stuck-valve test's where that test speaks."""
+    def stiction_probability(self, x: np.ndarray, stuck: np.ndarray | None = None) -> np.ndarray:
+        """The logistic model's probability, raised to a stuck-valve test's where that test speaks.
+        ``stuck`` [n, 2]: each window's ``Evidence.stuck`` (stuck-ramp share, stuck step's travel share)."""
         p = self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
-        if self.stuck is None or stuck_ramp is None:
+        if stuck is None:
             return p
-        return np.where(np.asarray(stuck_ramp) >= self.stuck.at, np.maximum(p, self.stuck.probability), p)
+        stuck = np.asarray(stuck, float).reshape(-1, 2)
+        for rule, column in ((self.stuck, 0), (self.step, 1)):
+            if rule is not None:
+                p = np.where(stuck[:, column] >= rule.at, np.maximum(p, rule.probability), p)
+        return p
 
     def save(self, path: Path) -> None:
         body = {
@@ -140,6 +153,8 @@ class Detector:
         }
         if self.stuck is not None:
             body["stuck_ramp"] = self.stuck.to_dict()
+        if self.step is not None:
+            body["stuck_step"] = self.step.to_dict()
         Path(path).write_text(json.dumps(body, indent=1) + "\n")
 
     @classmethod
@@ -147,9 +162,10 @@ class Detector:
         body = json.loads(Path(path).read_text())
         if tuple(body.get("features", ())) != NAMES:
             raise ValueError(f"{path}: detector trained on features {body.get('features')}, this code computes {NAMES}")
-        stuck = body.get("stuck_ramp")
-        rule = StuckRule(float(stuck["at"]), float(stuck["probability"])) if stuck else None
-        return cls(Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"]), body["trained_on"], rule)
+        rules = [body.get(k) for k in ("stuck_ramp", "stuck_step")]
+        ramp, step = (StuckRule(float(r["at"]), float(r["probability"])) if r else None for r in rules)
+        stiction, cause = Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"])
+        return cls(stiction, cause, body["trained_on"], ramp, step)
 
 
 @dataclass(frozen=True)
@@ -164,17 +180,28 @@ class Verdict:
     reads why a loop without a cycle is called sticky)."""
 
 
+def _stuck_valve(detector: Detector, ev: Evidence) -> str | None:
+    """What the stuck-valve tests that spoke saw, in the engineer's words; None where neither spoke."""
+    said = []
+    if detector.stuck is not None and ev.stuck_ramp >= detector.stuck.at:
+        said.append(f"OP ramped in a straight line while PV stood still in {ev.stuck_ramp:.0%} of the window")
+    st = ev.stuck_step
+    if detector.step is not None and st is not None and st.travel_share >= detector.step.at:
+        said.append(f"after the setpoint step at sample {st.step}, PV stood still for {st.still_samples} samples while "
+                    f"OP ramped {st.travel:.3g} in a straight line, then jumped in {st.rise_samples}")  # fmt: skip
+    if not said:
+        return None
+    return "stuck valve: " + "; ".join(said) + " (the controller winding up on a valve that does not move)"
+
+
 def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Verdict:
     """The verdict for one window: data problems first, then the stiction probability, then whether it oscillates."""
     if blocking_problems:
         return Verdict("bad_data", None, None, "; ".join(blocking_problems))
     x = ev.vector[None, :]
-    p = float(detector.stiction_probability(x, np.array([ev.stuck_ramp]))[0])
+    p = float(detector.stiction_probability(x, ev.stuck[None, :])[0])
     if p >= STICTION_AT:
-        stuck = None
-        if detector.stuck is not None and ev.stuck_ramp >= detector.stuck.at:
-            stuck = (f"stuck valve: OP ramped in a straight line while PV stood still in {ev.stuck_ramp:.0%} of the "
-                     "window (the controller winding up on a valve that does not move)")  # fmt: skip
+        stuck = _stuck_valve(detector, ev)
         reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "")
         return Verdict("stiction", p, "stiction", reason, stuck)
     if not ev.oscillation.oscillating:

@@ -110,10 +110,14 @@ def test_the_stuck_valve_test_raises_the_probability_where_it_speaks_and_nowhere
     from detect.verdict import StuckRule
 
     x = np.array([evidence(*_slow_loop(3.6, 0.0, s)[:2]).vector for s in range(3)])
-    plain = replace(detector, stuck=None).stiction_probability(x)
-    ruled = replace(detector, stuck=StuckRule(0.1, 0.97)).stiction_probability(x, np.array([0.0, 0.1, 0.5]))
+    plain = replace(detector, stuck=None, step=None).stiction_probability(x)
+    ramp = replace(detector, stuck=StuckRule(0.1, 0.97), step=None)
+    ruled = ramp.stiction_probability(x, np.array([[0.0, 0.9], [0.1, 0.0], [0.5, 0.0]]))
     assert ruled[0] == plain[0] and ruled[1] == max(plain[1], 0.97) and ruled[2] == max(plain[2], 0.97)
-    assert np.array_equal(detector.stiction_probability(x), plain)  # without shares, the logistic model alone
+    step = replace(detector, stuck=None, step=StuckRule(0.25, 0.93))
+    ruled = step.stiction_probability(x, np.array([[0.9, 0.0], [0.0, 0.24], [0.0, 0.25]]))
+    assert ruled[0] == plain[0] and ruled[1] == plain[1] and ruled[2] == max(plain[2], 0.93)
+    assert np.array_equal(detector.stiction_probability(x), plain)  # without statistics, the logistic model alone
 
 
 def test_measured_a_valve_that_sticks_between_setpoint_moves_shows_stuck_ramps_a_level_cycle_none():
@@ -137,8 +141,8 @@ def test_a_detector_file_without_the_stuck_valve_test_still_loads(tmp_path, dete
     from dataclasses import replace
 
     path = tmp_path / "detector.json"
-    replace(detector, stuck=None).save(path)
-    assert "stuck_ramp" not in json.loads(path.read_text())
-    assert Detector.load(path).stuck is None
+    replace(detector, stuck=None, step=None).save(path)
+    assert "stuck_ramp" not in json.loads(path.read_text()) and "stuck_step" not in json.loads(path.read_text())
+    assert Detector.load(path).stuck is None and Detector.load(path).step is None
     detector.save(path)
-    assert Detector.load(path).stuck == detector.stuck
+    assert Detector.load(path).stuck == detector.stuck and Detector.load(path).step == detector.step

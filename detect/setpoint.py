@@ -1,0 +1,134 @@
+"""A setpoint step the valve did not follow: the stuck valve seen in a step response.
+
+An operator steps the setpoint.  Through a valve that moves, PV starts towards the new setpoint
+as soon as OP moves (after the process's dead time) and follows OP's travel.  Through a stuck
+valve PV stands still while the controller's integral winds OP up in a straight line, until the
+stem breaks free: then PV jumps towards (often past) the setpoint within a few samples while OP
+hardly moves, or turns back on the proportional kick.
+
+Per step (one segment up to the next step), on PV's level (median-filtered, then averaged over
+five samples, as ``detect.features``):
+
+- *still*: samples until PV's progress towards the new setpoint leaves a zone of a fifth of the
+  step (or three times the level's noise, if larger);
+- *travel*: OP's move from before the step to the end of the still phase, in shares of OP's range
+  over the window; *kick*: its move in the first two samples (the proportional kick);
+- *rise*: samples from leaving the zone to three fifths of the step; *rise travel*: OP's move
+  over the rise in the still phase's direction, against the still phase's travel;
+- *back*: samples of the still phase in which PV wandered as far the other way (a load, not a
+  stuck valve).
+
+A step is a stuck response where the still phase is at least ``MIN_STILL`` samples, OP travelled
+at least ``MIN_TRAVEL`` of its range in a straight line (R^2 >= ``MIN_R2``) and at least twice its
+kick (a ramp, not the proportional jump a dead time would show), PV stayed put (back in at most
+``MAX_BACK`` of the still phase), then rose in at most ``MAX_RISE`` of the still phase's duration
+while OP travelled at most ``MAX_RISE_TRAVEL`` of the still phase's travel (a jump: a valve that
+follows OP after a dead zone, as a deadband's, lets PV rise only as OP travels on).
+
+Thresholds set on simulated plant-like loops with one to three setpoint steps each
+(``sim.plant_loops``, seed 2030, 100 loops a class): 3 % of the deadband loops, 1 % of the noise
+loops and none of the others show such a step; 19 % of the sticky loops do (most sticky loops
+cycle and are called by the other tests).  The 2-hour windows of a measured flow loop labelled
+sticky (2411FIC20102 of ``stictiongpt_plant``) show it with still phases of 17-190 samples at
+10 s and rises of 2-17; its healthy neighbour 2111FIC46002 follows its setpoint steps within a
+sample or two.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+MAX_STEPS = 20
+"""More setpoint changes than this in a window: a cascade's moving setpoint, not operator steps."""
+STEP_NOISE = 3.0
+"""A setpoint change counts as a step from three times PV's noise."""
+ZONE = 0.2
+MIN_STILL = 8
+MIN_TRAVEL = 0.25
+MIN_R2 = 0.9
+MAX_BACK = 0.2
+MAX_RISE = 0.35
+MAX_RISE_TRAVEL = 0.2
+
+
+@dataclass(frozen=True)
+class StuckStep:
+    """One setpoint step the valve did not follow (sample indices within the window)."""
+
+    step: int
+    still_samples: int
+    rise_samples: int
+    travel: float
+    """OP's travel over the still phase, in OP's units (% of span)."""
+    travel_share: float
+    """The same in shares of OP's range over the window."""
+
+
+def _level(y: np.ndarray) -> np.ndarray:
+    """Five-sample moving average (edges held), as the stuck-ramp test's level."""
+    padded = np.concatenate([np.full(2, y[0]), y, np.full(2, y[-1])])
+    c = np.cumsum(np.concatenate([[0.0], padded]))
+    return (c[5:] - c[:-5]) / 5.0
+
+
+def _r2(x: np.ndarray) -> float:
+    t = np.arange(x.size, dtype=float)
+    sx, st = x - x.mean(), t - t.mean()
+    den = float(np.dot(sx, sx) * np.dot(st, st))
+    return float(np.dot(sx, st) ** 2 / den) if den > 0 else 0.0
+
+
+def stuck_steps(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray, sp: np.ndarray | None) -> list[StuckStep]:
+    """The setpoint steps of one window whose response shows a stuck valve.  ``edges_op``,
+    ``edges_pv``: OP and PV median-filtered (``detect.features._edges``); ``pv`` raw, for its noise."""
+    if sp is None:
+        return []
+    sp = np.asarray(sp, float)
+    n = sp.size
+    if n < 2 * MIN_STILL or edges_op.size != n:
+        return []
+    noise = 1.4826 * float(np.median(np.abs(pv - edges_pv))) + 1e-12
+    change = np.abs(np.diff(sp))
+    steps = np.flatnonzero(change > max(STEP_NOISE * noise, 1e-9)) + 1
+    if steps.size == 0 or steps.size > MAX_STEPS:
+        return []
+    u = edges_op
+    range_op = float(np.percentile(u, 97.5) - np.percentile(u, 2.5))
+    if not range_op > 0:
+        return []
+    level = _level(edges_pv)
+    ends = list(steps[1:]) + [n]
+    found = []
+    for s, e in zip(steps, ends, strict=True):
+        s, e = int(s), int(e)
+        if s < 5 or e - s < MIN_STILL + 2:
+            continue
+        d_sp = sp[s] - sp[s - 1]
+        before = float(np.median(level[max(0, s - 10) : s]))
+        u0 = float(np.median(u[s - 5 : s]))
+        progress = np.sign(d_sp) * (level[s:e] - before) / abs(d_sp)
+        zone = max(ZONE, 3.0 * noise / np.sqrt(5.0) / abs(d_sp))
+        left = np.flatnonzero(progress > zone)
+        if left.size == 0:
+            continue
+        still = int(left[0])
+        if still < MIN_STILL:
+            continue
+        travel = abs(u[s + still] - u0)
+        kick = abs(u[min(s + 2, n - 1)] - u0)
+        if travel < MIN_TRAVEL * range_op or travel < 2.0 * kick or _r2(u[s : s + still + 1]) < MIN_R2:
+            continue
+        if np.count_nonzero(-progress[:still] > zone) > MAX_BACK * still:
+            continue
+        reached = np.flatnonzero(progress > 0.6)
+        if reached.size == 0 or reached[0] < still:
+            continue
+        rise = int(reached[0]) - still
+        direction = np.sign(u[s + still] - u0)
+        rise_travel = direction * (u[s + int(reached[0])] - u[s + still])
+        if rise > MAX_RISE * still or rise_travel > MAX_RISE_TRAVEL * travel:
+            continue
+        found.append(StuckStep(s, still, rise, float(travel), float(travel / range_op)))
+    return found

@@ -1,0 +1,80 @@
+"""The stuck setpoint step (``detect.setpoint``): a valve that sticks through an operator's
+setpoint step is found; a valve that moves, with or without a deadband smaller than the step, is not."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agent.predictor import DEFAULT_MODELS_DIR
+from detect.features import evidence
+from detect.training import DETECTOR_FILE
+from detect.verdict import STEP_AT, Detector, decide
+
+STEPS = ((0.3, 2.0), (0.65, -2.0))
+"""The operator raises the setpoint by 2 % of span a third into the window and lowers it again later."""
+
+
+def _flow_loop(fs_pct: float, seed: int, controller_gain: float, deadband_pct: float = 0.0, load_pct: float = 0.0):
+    """A flow-like loop (gain 1, lag 10 s, dead time 2 s) under a slow PI (Ti 150 s), sampled every
+    10 s, with two setpoint steps; a sticky valve of fs ``fs_pct`` with fd 0.3 fs (S 2.5 %, J 1.75 %
+    of span at fs 6)."""
+    from sim.extensions import Extensions
+    from sim.loop import LoopSpec
+    from sim.plant_loops import PlantLoop, simulate_plant
+    from sim.process import ProcessModel
+
+    process = ProcessModel(gain=1.0, time_constant_s=10.0, controller_gain=controller_gain, integral_time_s=150.0)
+    extensions = Extensions(dead_time_s=2.0, deadband_pct=deadband_pct)
+    spec = LoopSpec(fs_pct, 0.3 * fs_pct, process=process, extensions=extensions, seed=seed, sp_pct=50.0)
+    loop = PlantLoop(spec, "stiction", 10, 0.0, 0.0, 0.05, load_pct, STEPS)
+    return simulate_plant([loop], warmup_windows=5.0)[0]
+
+
+@pytest.fixture(scope="module")
+def detector():
+    return Detector.load(DEFAULT_MODELS_DIR / DETECTOR_FILE)
+
+
+@pytest.mark.parametrize("controller_gain", [0.2, 0.5])
+def test_a_valve_stuck_through_a_setpoint_step_is_found_and_named(detector, controller_gain):
+    assert detector.step is not None and detector.step.probability > 0.5
+    for seed in range(3):
+        op, pv, sp, ts_s = _flow_loop(6.0, seed, controller_gain)
+        ev = evidence(op, pv, ts_s, sp)
+        st = ev.stuck_step
+        assert st is not None and st.travel_share >= STEP_AT
+        assert st.step in {int(0.3 * op.size), int(0.65 * op.size)}  # at one of the hidden steps
+        assert 1.25 <= st.travel <= 5.0  # OP travelled of the order of the band (2.5 %) before the valve moved
+        v = decide(detector, ev, [])
+        assert v.verdict == "stiction" and v.stiction_probability >= detector.step.probability
+        assert "setpoint step" in v.stuck_valve
+
+
+@pytest.mark.parametrize("controller_gain", [0.2, 0.5])
+def test_a_moving_valve_follows_its_setpoint_steps_deadband_or_not(controller_gain):
+    for seed in range(3):
+        for deadband_pct in (0.0, 1.0, 2.0):
+            op, pv, sp, ts_s = _flow_loop(0.0, seed, controller_gain, deadband_pct, load_pct=0.3)
+            assert evidence(op, pv, ts_s, sp).stuck_step is None, (seed, deadband_pct)
+
+
+def test_no_setpoint_record_or_a_cascades_moving_setpoint_speaks_for_nothing():
+    op, pv, sp, ts_s = _flow_loop(6.0, 0, 0.5)
+    assert evidence(op, pv, ts_s, None).stuck_step is None
+    wandering = sp + np.random.default_rng(0).normal(0.0, 0.5, sp.size)  # a setpoint that moves every sample
+    assert evidence(op, pv, ts_s, wandering).stuck_step is None
+
+
+def test_measured_the_sticky_flow_valve_sticks_through_setpoint_steps_its_healthy_neighbour_follows():
+    from agent.historian import read_export
+
+    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+    if not plant.is_dir():
+        pytest.skip("measured plant data not here")
+    sticky = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_step
+              for e in map(read_export, sorted(plant.glob("stic_2411FIC20102_*.csv")))]  # fmt: skip
+    healthy = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_step
+               for e in map(read_export, sorted(plant.glob("*_2111FIC46002_*.csv")))]  # fmt: skip
+    assert sum(s is not None for s in sticky) >= len(sticky) // 2
+    assert healthy and all(s is None for s in healthy)
