@@ -188,7 +188,7 @@ def _stuck_valve(detector: Detector, ev: Evidence) -> str | None:
     st = ev.stuck_step
     if detector.step is not None and st is not None and st.travel_share >= detector.step.at:
         said.append(f"after the setpoint step at sample {st.step}, PV stood still for {st.still_samples} samples while "
-                    f"OP ramped {st.travel:.3g} in a straight line, then jumped in {st.rise_samples}")  # fmt: skip
+                    f"OP ramped {st.travel:.3g} % in a straight line, then jumped in {st.rise_samples}")  # fmt: skip
     if not said:
         return None
     return "stuck valve: " + "; ".join(said) + " (the controller winding up on a valve that does not move)"
