@@ -10,7 +10,7 @@ Two sets, same run:
 
 Methods: Horch's cross-correlation test (stiction where it reads an odd CCF), Choudhury's
 bicoherence test (nonlinear and oscillating), He et al.'s shape test (SI of OP > 0.6), and
-the project's verdict (data checks, then the detector's stiction probability >= 0.5), with
+the project's verdict (data checks, then the detector's stiction probability >= ``STICTION_AT``), with
 its stuck-valve tests (OP ramps while PV stands still; a setpoint step PV followed only
 after OP had ramped, ``detect.verdict.StuckRule``) alone beside it.
 """
@@ -29,11 +29,11 @@ METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
     from detect.shape import STICTION as SHAPE_STICTION
-    from detect.verdict import STEP_AT, STUCK_AT
+    from detect.verdict import STEP_AT, STICTION_AT, STUCK_AT
 
     ramp, step = ev.stuck
     return {
-        "ours": bool(not blocked and p_stiction >= 0.5),
+        "ours": bool(not blocked and p_stiction >= STICTION_AT),
         "stuck": bool(not blocked and (ramp >= STUCK_AT or step >= STEP_AT)),
         "horch": ev.horch.verdict == "stiction",
         "bicoherence": bool(ev.bicoherence.nonlinear and ev.oscillation.oscillating),
@@ -51,6 +51,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     from bench.measured import labelled_exports
     from detect import training
     from detect.features import evidence
+    from detect.verdict import STICTION_AT
     from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
 
     t0 = time.perf_counter()
@@ -105,7 +106,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
             "specificity": {m: float(np.mean(~np.array([c[m] for c in calls])[~truth])) for m in METHODS},
             "accuracy_simulation_only": float(np.mean(np.array(calls_sim) == truth)),
         }
-        out["measured"]["near_threshold"] = int(np.sum(np.abs(p_cv - 0.5) < 0.1))
+        out["measured"]["near_threshold"] = int(np.sum(np.abs(p_cv - STICTION_AT) < 0.1))
         shipped = training.train(x_train, causes_train, xm, sticky, tags, stuck=stuck_train)
         p_shipped = shipped.stiction_probability(x_sim, np.array([e.stuck for e in evs]))
         out["simulated_as_shipped"] = {

@@ -9,7 +9,7 @@ import pytest
 from agent.predictor import DEFAULT_MODELS_DIR
 from detect.features import evidence
 from detect.training import DETECTOR_FILE
-from detect.verdict import STEP_AT, Detector, decide
+from detect.verdict import STEP_AT, STICTION_AT, Detector, decide
 
 STEPS = ((0.3, 2.0), (0.65, -2.0))
 """The operator raises the setpoint by 2 % of span a third into the window and lowers it again later."""
@@ -38,7 +38,7 @@ def detector():
 
 @pytest.mark.parametrize("controller_gain", [0.2, 0.5])
 def test_a_valve_stuck_through_a_setpoint_step_is_found_and_named(detector, controller_gain):
-    assert detector.step is not None and detector.step.probability > 0.5
+    assert detector.step is not None and detector.step.probability >= STICTION_AT  # the test can call it alone
     for seed in range(3):
         op, pv, sp, ts_s = _flow_loop(6.0, seed, controller_gain)
         ev = evidence(op, pv, ts_s, sp)

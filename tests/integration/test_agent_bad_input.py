@@ -20,7 +20,7 @@ from tests.integration.conftest import wait_until
 
 PREFIX = "test/bad"
 WINDOW, EVERY, BATCH = 200, 50, 50  # every batch after the first full window makes a loop due
-GOOD = ["C2", "C4", "N5"]
+GOOD = ["C2", "C4", "N6"]
 
 
 @pytest.fixture

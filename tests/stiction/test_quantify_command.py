@@ -13,16 +13,16 @@ from stiction.cli import main
 def loops(tmp_path_factory):
     d = tmp_path_factory.mktemp("loops")
     main(["simulate", "--fs-pct", "50", "--fd-pct", "20", "--out", str(d / "a.csv")])
-    main(["simulate", "--case", "N5", "--seed", "2", "--out", str(d / "n5.csv")])
+    main(["simulate", "--case", "N1", "--seed", "2", "--out", str(d / "n1.csv")])
     (d / "bad.csv").write_text("t,op,pv\n0,1,2\n1,x,2\n")
     return d
 
 
 def test_json_lines_one_report_per_file(loops, capsys):
-    assert main(["quantify", "--json", "--process", "level", str(loops / "a.csv"), str(loops / "n5.csv")]) == 0
+    assert main(["quantify", "--json", "--process", "level", str(loops / "a.csv"), str(loops / "n1.csv")]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     reports = [json.loads(line) for line in lines]
-    assert [r["loop_id"] for r in reports] == ["a", "n5"]
+    assert [r["loop_id"] for r in reports] == ["a", "n1"]
     assert reports[0]["method"] == "physical"
     assert reports[0]["fs_pct"] == pytest.approx(50, abs=0.1) and reports[0]["fd_pct"] == pytest.approx(20, abs=0.1)
     assert reports[1]["denoised"] and reports[1]["method"] == "learned"
@@ -50,9 +50,9 @@ def test_plot_writes_one_png_per_loop_that_is_not_blank(loops, tmp_path, capsys)
     import matplotlib.image as mpimg
 
     out = tmp_path / "plots"
-    assert main(["quantify", "--plot", str(out), str(loops / "a.csv"), str(loops / "n5.csv")]) == 0
+    assert main(["quantify", "--plot", str(out), str(loops / "a.csv"), str(loops / "n1.csv")]) == 0
     pngs = sorted(out.glob("*.png"))
-    assert [p.name for p in pngs] == ["a.png", "n5.png"]
+    assert [p.name for p in pngs] == ["a.png", "n1.png"]
     for p in pngs:
         img = mpimg.imread(p)
         assert img.shape[0] > 300 and img.shape[1] > 800
