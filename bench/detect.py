@@ -146,5 +146,5 @@ def print_table(fig: dict) -> None:
               + f"   ({m['windows'] - m['bad_data']} windows: a dead or frozen sensor shows no valve)")  # fmt: skip
         print(f"ours trained on simulation only: accuracy {100 * m['accuracy_simulation_only']:.0f} %")
         print(f"measured windows within 0.1 of the threshold, cross-validated: {m['near_threshold']}"
-              " (their calls flip with small changes in training)")  # fmt: skip
+              " (their calls may flip with small changes in training)")  # fmt: skip
     print(f"{fig['seconds']:.0f} s")
