@@ -1,17 +1,10 @@
 """``stiction bench detect`` end to end on a small set: every figure it prints is there and is a share."""
 
-from pathlib import Path
-
-import pytest
-
 from bench.detect import METHODS, bench_detect, print_table
 
 
-def test_bench_detect_reports_the_shipped_recipe_beside_the_cross_validated_figures(capsys):
-    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
-    if not plant.is_dir():
-        pytest.skip("measured plant data not here")
-    fig = bench_detect([plant], n_per_class=3, seed=2026, train_per_class=6)
+def test_bench_detect_reports_the_shipped_recipe_beside_the_cross_validated_figures(capsys, plant_dir):
+    fig = bench_detect([plant_dir], n_per_class=3, seed=2026, train_per_class=6)
     m = fig["measured"]
     assert m["windows"] == 60 and m["sticky"] == 27
     for key in ("accuracy", "recall", "specificity", "accuracy_readable"):

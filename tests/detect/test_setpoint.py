@@ -1,7 +1,6 @@
 """The stuck setpoint step (``detect.setpoint``): a valve that sticks through an operator's
 setpoint step is found; a valve that moves, with or without a deadband smaller than the step, is not."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -66,15 +65,8 @@ def test_no_setpoint_record_or_a_cascades_moving_setpoint_speaks_for_nothing():
     assert evidence(op, pv, ts_s, wandering).stuck_step is None
 
 
-def test_measured_the_sticky_flow_valve_sticks_through_setpoint_steps_its_healthy_neighbour_follows():
-    from agent.historian import read_export
-
-    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
-    if not plant.is_dir():
-        pytest.skip("measured plant data not here")
-    sticky = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_step
-              for e in map(read_export, sorted(plant.glob("stic_2411FIC20102_*.csv")))]  # fmt: skip
-    healthy = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_step
-               for e in map(read_export, sorted(plant.glob("*_2111FIC46002_*.csv")))]  # fmt: skip
+def test_measured_the_sticky_flow_valve_sticks_through_setpoint_steps_its_healthy_neighbour_follows(measured_evidence):
+    sticky = [ev.stuck_step for ev in measured_evidence("stic_2411FIC20102_*.csv")]
+    healthy = [ev.stuck_step for ev in measured_evidence("*_2111FIC46002_*.csv")]
     assert sum(s is not None for s in sticky) >= len(sticky) // 2
     assert healthy and all(s is None for s in healthy)

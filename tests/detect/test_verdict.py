@@ -120,19 +120,11 @@ def test_the_stuck_valve_test_raises_the_probability_where_it_speaks_and_nowhere
     assert np.array_equal(detector.stiction_probability(x), plain)  # without statistics, the logistic model alone
 
 
-def test_measured_a_valve_that_sticks_between_setpoint_moves_shows_stuck_ramps_a_level_cycle_none():
-    from pathlib import Path
-
-    from agent.historian import read_export
+def test_measured_a_valve_that_sticks_between_setpoint_moves_shows_stuck_ramps_a_level_cycle_none(measured_evidence):
     from detect.verdict import STUCK_AT
 
-    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
-    if not plant.is_dir():
-        pytest.skip("measured plant data not here")
-    stuck = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_ramp
-             for e in map(read_export, sorted(plant.glob("stic_2411FIC20102_10*.csv")))]  # fmt: skip
-    cycling = [evidence(e.op, e.pv, e.ts_s, e.sp).stuck_ramp
-               for e in map(read_export, sorted(plant.glob("stic_2111LIC31102B_*.csv")))]  # fmt: skip
+    stuck = [ev.stuck_ramp for ev in measured_evidence("stic_2411FIC20102_10*.csv")]
+    cycling = [ev.stuck_ramp for ev in measured_evidence("stic_2111LIC31102B_*.csv")]
     assert sum(s >= STUCK_AT for s in stuck) >= len(stuck) // 2 and max(cycling) == 0.0
 
 

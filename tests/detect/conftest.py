@@ -1,0 +1,25 @@
+from pathlib import Path
+
+import pytest
+
+PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+
+
+@pytest.fixture
+def plant_dir() -> Path:
+    """The labelled measured windows (``stictiongpt_plant``); the test is skipped where they are not."""
+    if not PLANT.is_dir():
+        pytest.skip("measured plant data not here")
+    return PLANT
+
+
+@pytest.fixture
+def measured_evidence(plant_dir):
+    """``of(pattern)``: the evidence of each measured window whose file name matches ``pattern``."""
+    from agent.historian import read_export
+    from detect.features import evidence
+
+    def of(pattern: str) -> list:
+        return [evidence(e.op, e.pv, e.ts_s, e.sp) for e in map(read_export, sorted(plant_dir.glob(pattern)))]
+
+    return of
