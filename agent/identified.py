@@ -29,13 +29,13 @@ NOT_READ_WARNING = (
 NOT_READ_PREFIX = "S and J not read under the identified process: "
 
 
-def size_safely(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str) -> Sizing:
+def size_safely(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str, sp=None) -> Sizing:
     """``ident.sizing.size``, a failure of the identification becoming the reason nothing was read."""
     from ident.sizing import size
     from schemas.errors import StictionError
 
     try:
-        return size(op, pv, ts_s, loop_id)
+        return size(op, pv, ts_s, loop_id, sp)
     except StictionError as e:
         why = str(e)
     except Exception as e:  # noqa: BLE001 - a fit that breaks on one loop must cost that loop's numbers only
@@ -102,7 +102,8 @@ def quantify_sized(quantifier, windows, details: bool = False) -> list[tuple[Sti
     for w, r in zip(windows, quantifier.results(windows, details=details), strict=True):
         report, d = r.report, r.details
         if needs_sizing(report):
-            report, d = with_sizing_and_model(report, d, size_safely(w.op, w.pv, w.ts_s, w.loop_id), w.t_end_s)
+            sizing = size_safely(w.op, w.pv, w.ts_s, w.loop_id, w.sp)
+            report, d = with_sizing_and_model(report, d, sizing, w.t_end_s)
         out.append((report, d))
     return out
 
@@ -115,11 +116,11 @@ def identified_warning(sizing: Sizing) -> str:
         "plant-like loops"  # fmt: skip
 
 
-def size_in_worker(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str) -> Sizing:
+def size_in_worker(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str, sp=None) -> Sizing:
     """``size_safely`` for a worker process: the model's PV (for plots) stays behind."""
     from dataclasses import replace
 
-    return replace(size_safely(op, pv, ts_s, loop_id), model_pv_pct=None)
+    return replace(size_safely(op, pv, ts_s, loop_id, sp), model_pv_pct=None)
 
 
 def sizing_pool(workers: int, initializer=None):

@@ -242,19 +242,20 @@ class AgentService:
     def _size_or_queue(self, w, partial: bool) -> None:
         """Size the window now if the worker is free, else keep it (the loop's latest) until it is:
         a loop whose stream ends while another is being sized is still sized."""
-        job = (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, partial)
+        sp = None if w.sp is None else np.array(w.sp)
+        job = (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, partial, sp)
         if self.sizing.has_room():
             self._size(*job)
         else:
             self._size_queue.pop(w.loop_id, None)  # its newest window, in the order loops asked
             self._size_queue[w.loop_id] = job
 
-    def _size(self, loop_id, op, pv, ts_s, t_end_s, partial) -> None:
+    def _size(self, loop_id, op, pv, ts_s, t_end_s, partial, sp=None) -> None:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
         arrays are views of the rolling buffer, and the pool pickles them later)."""
         if self._size_pool is None:
             self._size_pool = sizing_pool(1, initializer=lower_priority)
-        future = self._size_pool.submit(size_in_worker, op, pv, ts_s, loop_id)
+        future = self._size_pool.submit(size_in_worker, op, pv, ts_s, loop_id, sp)
         self._sizings[future] = (loop_id, t_end_s)
         self.sizing.started(loop_id, len(op), partial)
 

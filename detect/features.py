@@ -85,13 +85,16 @@ def _stuck_ramp(y: np.ndarray, pv: np.ndarray, u: np.ndarray) -> tuple[float, fl
     return float(share), float(travel)
 
 
-def stuck_ramp(op: np.ndarray, pv: np.ndarray) -> tuple[float, float]:
-    """The stuck-ramp share and the largest OP travel over such a span, of one window's OP and PV (as
-    ``evidence``): a valve that stood still while OP moved that far has a band S of about that at
-    least (``ident.sizing.stuck_travel_contradicts``)."""
-    rows = np.stack([np.asarray(pv, float), np.asarray(op, float)])
-    edges = _edges(rows)
-    return _stuck_ramp(edges[0], rows[0], edges[1])
+def stuck_travel(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None) -> float:
+    """The largest OP travel (% of span) over which PV stood still in one window, by either
+    stuck-valve test (as ``evidence``: a stuck ramp, or a setpoint step's still phase); 0 where
+    neither saw one.  A valve that stood still while OP moved that far has a band S of about that
+    at least (``ident.sizing.stuck_travel_contradicts``)."""
+    pv, op = np.asarray(pv, float), np.asarray(op, float)
+    edges = _edges(np.stack([pv, op]))
+    travel = _stuck_ramp(edges[0], pv, edges[1])[1]
+    steps = setpoint.stuck_steps(edges[1], edges[0], pv, sp)
+    return max([travel] + [st.travel for st in steps])
 
 
 def warm_up() -> None:

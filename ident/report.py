@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from detect.features import stuck_ramp
+from detect.features import stuck_travel
 from ident.checks import blocking, data_checks, impossible_friction
 from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
 from ident.fit import Friction, ValveFit
@@ -102,6 +102,7 @@ def diagnosis_report(
     d: Diagnosis,
     warnings: list[str] | None = None,
     valve_check: schema.ValveCheck | None = None,
+    sp_pct: np.ndarray | None = None,
 ) -> schema.DiagnosisReport:
     f = d.friction
     problems = data_checks(record.op_pct, record.pv_pct)
@@ -118,7 +119,8 @@ def diagnosis_report(
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
     f = _without_friction(f) if withheld else with_model_error(f)
     if not withheld:  # a band read: does the OP travel over which PV stood still allow it?
-        contradicted = stuck_travel_contradicts(f.s_pct, f.s_se_pct, stuck_ramp(record.op_pct, record.pv_pct)[1])
+        travel = stuck_travel(record.op_pct, record.pv_pct, sp_pct)
+        contradicted = stuck_travel_contradicts(f.s_pct, f.s_se_pct, travel)
         if contradicted:
             notes.append(contradicted)
             f = _without_friction(f)
@@ -183,6 +185,7 @@ def diagnose_loop(
     warnings: tuple[str, ...] | list[str] = (),
     last: int | None = None,
     max_causes: int | None = None,
+    sp: np.ndarray | None = None,
 ):
     """Diagnose one measured loop as ``stiction diagnose`` does: the last ``last`` samples (default
     up to MAX_SAMPLES, with a warning when more were given), the valve checked against a measured
@@ -199,9 +202,11 @@ def diagnose_loop(
         warnings.append(f"{op.size} samples: diagnosed the last {keep} (--last to choose)")
     op, pv = op[-keep:], pv[-keep:]
     mv = mv[-keep:] if mv is not None else None
+    sp = np.asarray(sp, float)[-keep:] if sp is not None else None
+    sp = sp if sp is not None and sp.size == op.size else None
     if op.size < MIN_SAMPLES:
         raise InputError(f"{op.size} samples, need at least {MIN_SAMPLES} to diagnose")
     record = Record(op, pv, ts_s, horizon=choose_horizon(pv))
     d = diagnose(record, max_causes=MAX_CAUSES if max_causes is None else max_causes)
     check = valve_check_out(check_valve(op, mv, ts_s)) if mv is not None else None
-    return diagnosis_report(name, record, d, warnings, check), record, d
+    return diagnosis_report(name, record, d, warnings, check, sp), record, d

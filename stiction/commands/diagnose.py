@@ -74,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
     for path, export in exports.windows(args, "diagnose", FIELDS, MIN_SAMPLES, failed):
         try:
             report, record, d = diagnose_loop(
-                path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, None, args.max_causes
+                path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, None, args.max_causes,
+                export.sp,
             )
         except StictionError as e:  # one bad file never stops the others
             failed.append(exports.report_error("diagnose", path, e))

@@ -191,10 +191,10 @@ def _size(args, items: list[_Item], sized: dict, pool):
         w = item.window
         if args.jobs > 1:
             pool = pool or sizing_pool(args.jobs)
-            item.job = pool.submit(size_safely, np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id)
+            item.job = pool.submit(size_safely, np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id, w.sp)
         else:
             item.job = Future()
-            item.job.set_result(size_safely(np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id))
+            item.job.set_result(size_safely(np.asarray(w.op), np.asarray(w.pv), w.ts_s, w.loop_id, w.sp))
         item.job_t_end_s, item.fresh = t_end, True
         sized[str(item.path)] = (t_end, item.job)
     return pool

@@ -70,3 +70,15 @@ def test_measured_the_sticky_flow_valve_sticks_through_setpoint_steps_its_health
     healthy = [ev.stuck_step for ev in measured_evidence("*_2111FIC46002_*.csv")]
     assert sum(s is not None for s in sticky) >= len(sticky) // 2
     assert healthy and all(s is None for s in healthy)
+
+
+def test_the_stuck_steps_travel_bounds_the_band_where_the_setpoint_is_known():
+    from detect.features import stuck_travel
+
+    for seed in range(3):
+        op, pv, sp, ts_s = _flow_loop(6.0, seed, 0.5)
+        step = evidence(op, pv, ts_s, sp).stuck_step
+        with_sp, without = stuck_travel(op, pv, sp), stuck_travel(op, pv)
+        assert with_sp >= without and with_sp == pytest.approx(max(without, step.travel))
+        op, pv, sp, ts_s = _flow_loop(0.0, seed, 0.5, 1.0, load_pct=0.3)  # a moving valve: no step to add
+        assert stuck_travel(op, pv, sp) == stuck_travel(op, pv)
