@@ -3,8 +3,11 @@ simulated plant-like loops (``sim.plant_loops``) and on labelled measured window
 
 Two logistic models over ``detect.features.NAMES``: the stiction probability (stiction
 against every look-alike), and, for a loop that oscillates without stiction, which
-look-alike it most resembles.  The weights are a small JSON file shipped beside the other
-models, with what they were trained on.
+look-alike it most resembles.  Beside them two stuck-valve rules (``StuckRule``: a stuck OP
+ramp, a stuck setpoint step) raise the probability where they speak.  The verdict is
+``stiction`` from ``STICTION_AT``; below it, from ``LEANS_AT``, the reason says the data lean
+to stiction.  The weights are a small JSON file shipped beside the other models, with what
+they were trained on.
 """
 
 from __future__ import annotations
