@@ -68,7 +68,8 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
     evs = [evidence(op, pv, ts_s, sp) for op, pv, sp, ts_s in records]
     feature_s = (time.perf_counter() - t1) / len(loops)
     x_sim = np.nan_to_num(np.array([e.vector for e in evs]))
-    p = detector.stiction_probability(x_sim, np.array([e.stuck for e in evs]))
+    stuck_sim = np.array([e.stuck for e in evs])
+    p = detector.stiction_probability(x_sim, stuck_sim)
     blocked = [_blocked(op, pv) for op, pv, _, _ in records]
     by_class = {cls: [i for i, loop in enumerate(loops) if loop.cause == cls] for cls in CLASSES}
     for cls, idx in by_class.items():
@@ -108,7 +109,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, 
         }
         out["measured"]["near_threshold"] = int(np.sum(np.abs(p_cv - STICTION_AT) < 0.1))
         shipped = training.train(x_train, causes_train, xm, sticky, tags, stuck=stuck_train)
-        p_shipped = shipped.stiction_probability(x_sim, np.array([e.stuck for e in evs]))
+        p_shipped = shipped.stiction_probability(x_sim, stuck_sim)
         out["simulated_as_shipped"] = {
             cls: float(np.mean([_calls(evs[i], p_shipped[i], blocked[i])["ours"] for i in idx]))
             for cls, idx in by_class.items()

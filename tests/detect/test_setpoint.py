@@ -15,19 +15,12 @@ STEPS = ((0.3, 2.0), (0.65, -2.0))
 
 
 def _flow_loop(fs_pct: float, seed: int, controller_gain: float, deadband_pct: float = 0.0, load_pct: float = 0.0):
-    """A flow-like loop (gain 1, lag 10 s, dead time 2 s) under a slow PI (Ti 150 s), sampled every
-    10 s, with two setpoint steps; a sticky valve of fs ``fs_pct`` with fd 0.3 fs (S 2.5 %, J 1.75 %
-    of span at fs 6)."""
-    from sim.extensions import Extensions
-    from sim.loop import LoopSpec
-    from sim.plant_loops import PlantLoop, simulate_plant
-    from sim.process import ProcessModel
+    """The slow flow loop with the two setpoint steps; a sticky valve of fs ``fs_pct`` with fd 0.3 fs
+    (S 2.5 %, J 1.75 % of span at fs 6)."""
+    from tests.detect.loops import slow_flow_loop
 
-    process = ProcessModel(gain=1.0, time_constant_s=10.0, controller_gain=controller_gain, integral_time_s=150.0)
-    extensions = Extensions(dead_time_s=2.0, deadband_pct=deadband_pct)
-    spec = LoopSpec(fs_pct, 0.3 * fs_pct, process=process, extensions=extensions, seed=seed, sp_pct=50.0)
-    loop = PlantLoop(spec, "stiction", 10, 0.0, 0.0, 0.05, load_pct, STEPS)
-    return simulate_plant([loop], warmup_windows=5.0)[0]
+    return slow_flow_loop(fs_pct, seed, fd_share=0.3, controller_gain=controller_gain, deadband_pct=deadband_pct,
+                          load_pct=load_pct, sp_steps=STEPS)  # fmt: skip
 
 
 @pytest.fixture(scope="module")

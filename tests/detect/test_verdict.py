@@ -73,18 +73,10 @@ def test_detector_file_names_the_features_it_was_trained_on(tmp_path, detector):
 
 
 def _slow_loop(fs_pct: float, load_pct: float, seed: int):
-    """A flow-like loop (gain 1, lag 10 s, dead time 2 s) under a slow PI (Kc 0.5, Ti 150 s), sampled
-    every 10 s: a sticky valve there sticks for minutes while OP winds up, and slips."""
-    from sim.extensions import Extensions
-    from sim.loop import LoopSpec
-    from sim.plant_loops import PlantLoop
-    from sim.process import ProcessModel
+    """A sticky valve (fd 0.7 fs) or a linear one under a slow load, under a slow PI (Kc 0.5)."""
+    from tests.detect.loops import slow_flow_loop
 
-    process = ProcessModel(gain=1.0, time_constant_s=10.0, controller_gain=0.5, integral_time_s=150.0)
-    spec = LoopSpec(fs_pct, 0.7 * fs_pct, process=process, extensions=Extensions(dead_time_s=2.0), seed=seed,
-                    sp_pct=50.0)  # fmt: skip
-    loop = PlantLoop(spec, "stiction" if fs_pct else "noise", 10, 0.0, 0.0, 0.05, load_pct)
-    return simulate_plant([loop], warmup_windows=5.0)[0]
+    return slow_flow_loop(fs_pct, seed, load_pct=load_pct)
 
 
 def test_a_valve_stuck_while_op_ramps_is_found_and_a_slow_load_followed_by_op_is_not(detector):
