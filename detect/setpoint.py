@@ -89,8 +89,10 @@ def stuck_steps(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray, sp: 
     n = sp.size
     if n < 2 * MIN_STILL or edges_op.size != n:
         return []
-    noise = 1.4826 * float(np.median(np.abs(pv - edges_pv))) + 1e-12
     change = np.abs(np.diff(sp))
+    if not np.any(change > 1e-9):  # the common case, a setpoint that never moves: no median to take
+        return []
+    noise = 1.4826 * float(np.median(np.abs(pv - edges_pv))) + 1e-12
     steps = np.flatnonzero(change > max(STEP_NOISE * noise, 1e-9)) + 1
     if steps.size == 0 or steps.size > MAX_STEPS:
         return []
