@@ -56,6 +56,11 @@ def test_no_setpoint_record_or_a_cascades_moving_setpoint_speaks_for_nothing():
     assert evidence(op, pv, ts_s, None).stuck_step is None
     wandering = sp + np.random.default_rng(0).normal(0.0, 0.5, sp.size)  # a setpoint that moves every sample
     assert evidence(op, pv, ts_s, wandering).stuck_step is None
+    assert evidence(op, pv, ts_s, np.full(sp.size, np.nan)).stuck_step is None  # a setpoint tag never recorded
+    gappy = sp.copy()
+    gappy[::7] = np.nan  # an archive with holes: the steps next to a hole are not read, nothing breaks
+    st = evidence(op, pv, ts_s, gappy).stuck_step
+    assert st is None or st.step in {int(0.3 * op.size), int(0.65 * op.size)}
 
 
 def test_measured_the_sticky_flow_valve_sticks_through_setpoint_steps_its_healthy_neighbour_follows(measured_evidence):
