@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ident.segment import noise_variance, segment_ends
-from sim.valve import VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
+from sim.process import LOOPS
+from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
 
-LEVEL_GAIN_PER_S = 1.0 / 15.0
+LEVEL_GAIN_PER_S = LOOPS["level"].gain
 SETTLE_SAMPLES = 5  # the MV recursion forgets its start by a factor ~0.012 a sample
 
 
@@ -58,18 +59,14 @@ def reconstruct_mv(pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_
     return mv
 
 
-TO_PCT = VALVE.lbf_per_pct * 100.0 / 500.0
-"""Percent of OP-MV gap to percent of 500 lbf."""
-
-
 def _from_slips(gap_stuck, gap_broke, gap_after) -> tuple[float, float, float, float]:
     """Per-slip readings -> (fs, fd, their standard errors), percent of 500 lbf.
 
     The band lies between the gap at the last stuck sample and the gap at breakaway; fd is the
     force left on the stem after the slip, less the Stribeck stop residual (a fraction of a lbf).
     """
-    fs_k = 0.5 * (gap_stuck + gap_broke) * TO_PCT
-    stop_k = gap_after * TO_PCT
+    fs_k = 0.5 * (gap_stuck + gap_broke) * PCT_OF_500LBF_PER_PCT_OF_SPAN
+    stop_k = gap_after * PCT_OF_500LBF_PER_PCT_OF_SPAN
     fs, stop = float(np.median(fs_k)), float(np.median(stop_k))
     fd = stop - float(lbf_to_pct(VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs - stop))))
     return fs, fd, _robust_se(fs_k), _robust_se(stop_k)
@@ -110,8 +107,8 @@ def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = 
         low, high = gap[i, :-1][stuck].max(), gap[i, k].min()
         if low < high:  # no noise: the intersection of all brackets
             bracketed[i] = True
-            fs[i] = 0.5 * (low + high) * TO_PCT
-            fs_se[i] = (high - low) * TO_PCT / np.sqrt(12)
+            fs[i] = 0.5 * (low + high) * PCT_OF_500LBF_PER_PCT_OF_SPAN
+            fs_se[i] = (high - low) * PCT_OF_500LBF_PER_PCT_OF_SPAN / np.sqrt(12)
     return PhysicalReading(fs, fd, fs_se, fd_se, slips, bracketed, np.zeros(n_win, bool))
 
 

@@ -43,7 +43,7 @@ from ident.checks import blocking, data_checks, impossible_friction
 from schemas.report import Estimate, ProcessInfo, StictionReport
 from sim.loop import TS_S
 from sim.process import LOOPS
-from sim.valve import band_and_jump_pct
+from sim.valve import band_and_jump_pct, band_and_jump_se_pct
 
 PHYSICAL_MAX_SE_PCT = 0.25
 SEGMENTED_MAX_SE_PCT = 0.5
@@ -99,8 +99,7 @@ def _impossible(fs_pct, fd_pct, fs_se_pct, fd_se_pct, op_range_pct: float) -> st
     if fd_pct + 2 * fd_se < 0:
         return f"fd {fd_pct:.1f} % is below zero"
     s_pct, j_pct = band_and_jump_pct(fs_pct, fd_pct)
-    s_se, _ = band_and_jump_pct(fs_se, 0.0)
-    j_se = band_and_jump_pct(float(np.hypot(fs_se, fd_se)), 0.0)[0]
+    s_se, j_se = band_and_jump_se_pct(fs_se, fd_se)
     return impossible_friction(float(s_pct), float(j_pct), float(s_se), float(j_se), op_range_pct)
 
 
@@ -251,8 +250,7 @@ class Quantifier:
         if fs is not None and fd is not None:
             s_pct, j_pct = (_opt(v) for v in band_and_jump_pct(fs, fd))
             if fs_se is not None:
-                s_se = _opt(band_and_jump_pct(fs_se, 0.0)[0])
-                j_se = _opt(band_and_jump_pct(float(np.hypot(fs_se, fd_se or 0.0)), 0.0)[0])
+                s_se, j_se = (_opt(v) for v in band_and_jump_se_pct(fs_se, fd_se or 0.0))
         period = a.period_s[i] if np.isfinite(a.period_s[i]) else (ev.oscillation.period_s or np.nan)
         return StictionReport(
             loop_id=w.loop_id,

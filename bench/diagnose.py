@@ -26,11 +26,11 @@ from ident.report import diagnosis_report
 from sim.extensions import CATALOGUE
 from sim.grid import EFFECT_RANGES, effect_loops
 from sim.loop import simulate
-from sim.valve import VALVE
+from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 
 SEED = 20261122
-DEADBAND_WIDENS_PCT = VALVE.lbf_per_pct / 2 / 5.0
-"""A deadband of width d is a band d/2 wider with fd d/2 higher (12 lbf per %, 5 lbf per pp of 500 lbf)."""
+DEADBAND_WIDENS_PCT = PCT_OF_500LBF_PER_PCT_OF_SPAN / 2
+"""A deadband of width d makes fs and fd each d/2 higher (so S is d wider and J stays), in % of 500 lbf."""
 
 
 def _truth(spec) -> list[float]:

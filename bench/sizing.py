@@ -25,7 +25,7 @@ def _one(item) -> dict:
     from agent.identified import quantify_sized
     from agent.pipeline import Quantifier, Window
     from ident.sizing import MODEL_ERROR_J, MODEL_ERROR_S
-    from sim.valve import band_and_jump_pct
+    from sim.valve import band_and_jump_pct, band_and_jump_se_pct
 
     global _QUANTIFIER
     if _QUANTIFIER is None:
@@ -43,7 +43,8 @@ def _one(item) -> dict:
         row["j_se_fit"] = float(np.sqrt(max(r.j_se_pct**2 - (MODEL_ERROR_J * r.s_pct) ** 2, 0.0)))
     if r.learned.fs_pct is not None:
         s, j = band_and_jump_pct(r.learned.fs_pct, r.learned.fd_pct)
-        row["learned_s"], row["learned_s_se"] = float(s), float(band_and_jump_pct(r.learned.fs_se_pct, 0.0)[0])
+        s_se, _ = band_and_jump_se_pct(r.learned.fs_se_pct, r.learned.fd_se_pct or 0.0)
+        row["learned_s"], row["learned_s_se"] = float(s), float(s_se)
         row["learned_j"] = float(j)
     return row
 

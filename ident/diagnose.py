@@ -26,8 +26,13 @@ from ident.fit import Friction, Hypothesis, ValveFit, criterion, effective_sampl
 from ident.process import Dynamics
 from ident.record import Record, process_sign
 from ident.stem import StemReader
+from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
 
 MAX_CAUSES = 4
+SPREAD_FIELDS = ("band", "stop", "s", "j")
+"""What ``_spread`` reads of each rival fit, % of span: the static band (fs / 12), the stop (fd / 12),
+Choudhury's S and J (``sim.valve.band_and_jump_pct``)."""
+NO_SPREAD = (0.0,) * len(SPREAD_FIELDS)
 MARGIN = 0.0
 """Criterion improvement a cause must bring beyond its parameter's own price."""
 
@@ -43,11 +48,11 @@ class Model:
     quantum_pct: float | None = None
     rss_override: float | None = None
     load_amplitude_pct: float = float("nan")
-    spread: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    spread: tuple[float, ...] = NO_SPREAD
+    """Model uncertainty of ``SPREAD_FIELDS``, % of span, beyond the fit's own covariance: how much the
+    friction moves over the cause parameters and the rival causes the data allow (``_spread``)."""
     profile: tuple[tuple[float, ValveFit, float], ...] = ()
     """(value, fit, criterion) of the last cause's parameter where it was fitted in full."""
-    """Model uncertainty of (S, stop, J), % of span, beyond the fit's own covariance: how much the
-    friction moves over the cause parameters and the rival causes the data allow (``_spread``)."""
 
     @property
     def rss(self) -> float:
@@ -340,16 +345,16 @@ def _refined(fitter: Fitter, model: Model, cause: str, current: Model) -> Model:
     return replace(best, spread=_combined(current.spread, own), profile=tuple(sorted(points, key=lambda p: p[0])))
 
 
-def _valve_of(vf: ValveFit) -> tuple[float, float, float]:
-    """(S, stop, J) of a fit, % of span (nan where not read)."""
-    s = vf.band_pct
-    if np.isfinite(vf.jump_pct):
-        return s, s - vf.jump_pct, vf.jump_pct
-    return s, vf.stop_pct, s - vf.stop_pct
+def _valve_of(vf: ValveFit) -> tuple[float, float, float, float]:
+    """(static band, stop, S, J) of a fit, % of span (nan where not read)."""
+    band = vf.band_pct
+    stop = band - vf.jump_pct if np.isfinite(vf.jump_pct) else vf.stop_pct
+    s, j = band_and_jump_pct(band * PCT_OF_500LBF_PER_PCT_OF_SPAN, stop * PCT_OF_500LBF_PER_PCT_OF_SPAN)
+    return band, stop, float(s), float(j)
 
 
-def _spread(record: Record, fits: list[tuple[ValveFit, float]]) -> tuple[float, float, float]:
-    """Weighted spread of (S, stop, J) over rival fits of one record.
+def _spread(record: Record, fits: list[tuple[ValveFit, float]]) -> tuple[float, ...]:
+    """Weighted spread of ``SPREAD_FIELDS`` over rival fits of one record.
 
     Each fit weighs exp(-delta/2), delta its criterion above the best counted over the residual's
     effective samples (neighbouring residuals are not independent evidence): fits the data cannot
@@ -361,7 +366,7 @@ def _spread(record: Record, fits: list[tuple[ValveFit, float]]) -> tuple[float, 
     crit = np.array([c for _, c in fits], dtype=float)
     ok = np.all(np.isfinite(values), axis=1) & np.isfinite(crit)
     if ok.sum() < 2:
-        return (0.0, 0.0, 0.0)
+        return NO_SPREAD
     values, crit = values[ok], crit[ok]
     best = int(np.argmin(crit))
     best_fit = [vf for (vf, _), k in zip(fits, ok, strict=True) if k][best]
@@ -369,25 +374,25 @@ def _spread(record: Record, fits: list[tuple[ValveFit, float]]) -> tuple[float, 
     w = np.exp(-0.5 * (crit - crit[best]) * n_eff / record.n_fit)
     mean = w @ values / w.sum()
     sd = np.sqrt(w @ (values - mean) ** 2 / w.sum())
-    return (float(sd[0]), float(sd[1]), float(sd[2]))
+    return tuple(float(v) for v in sd)
 
 
-def _combined(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float, float]:
-    return (float(np.hypot(a[0], b[0])), float(np.hypot(a[1], b[1])), float(np.hypot(a[2], b[2])))
+def _combined(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(float(np.hypot(x, y)) for x, y in zip(a, b, strict=True))
 
 
-def widened(f: Friction, spread: tuple[float, float, float]) -> Friction:
+def widened(f: Friction, spread: tuple[float, ...]) -> Friction:
     """``f`` with the model uncertainty added to its standard errors (in quadrature)."""
     if not any(spread):
         return f
-    stop_se = f.fd_se_pct / fit.PCT_OF_500LBF_PER_PCT
-    s_se = float(np.hypot(f.s_se_pct, spread[0]))
+    band, stop, s, j = spread
+    k = PCT_OF_500LBF_PER_PCT_OF_SPAN
     return replace(
         f,
-        s_se_pct=s_se,
-        j_se_pct=float(np.hypot(f.j_se_pct, spread[2])),
-        fs_se_pct=s_se * fit.PCT_OF_500LBF_PER_PCT,
-        fd_se_pct=float(np.hypot(stop_se, spread[1])) * fit.PCT_OF_500LBF_PER_PCT,
+        s_se_pct=float(np.hypot(f.s_se_pct, s)),
+        j_se_pct=float(np.hypot(f.j_se_pct, j)),
+        fs_se_pct=float(np.hypot(f.fs_se_pct, band * k)),
+        fd_se_pct=float(np.hypot(f.fd_se_pct, stop * k)),
     )
 
 

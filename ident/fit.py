@@ -32,12 +32,10 @@ from ident.objective import nuisance_basis, project_out
 from ident.process import Dynamics, TransferFunction, transfer_function
 from ident.record import Record, process_sign
 from ident.stem import StemPath
-from sim.valve import VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
+from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, band_and_jump_pct, lbf_to_pct, pct_to_lbf, stop_residual_in
 
 SLIP_S = VALVE.viscous_lbf_s_per_in / VALVE.spring_lbf_per_in
 """Flow-time a slip of 1 % withholds (the stem's two time constants, ``sim.valve``)."""
-PCT_OF_500LBF_PER_PCT = VALVE.lbf_per_pct * 100.0 / 500.0
-"""S or stop in % of OP -> percent of 500 lbf (the thesis's fs/fd)."""
 PASSES = 3
 
 
@@ -669,35 +667,43 @@ def jump_profile_se(vf: ValveFit, record: Record, band: float) -> float:
 
 
 def friction(vf: ValveFit, record: Record) -> Friction:
-    """S (searched, or from the brackets), J and stop (one from the least squares, the other the
-    difference), with their standard errors."""
-    s, s_se = vf.band_pct, vf.band_se
+    """The valve a fit read, in both conventions (``sim.valve.band_and_jump_pct``).
+
+    The fit reads the static band ``b = fs / 12`` (searched, or from the brackets: how far the drive
+    gets from the stem before it breaks away) and either the jump or the stop ``fd / 12`` (one from
+    the least squares, the other the difference).  Choudhury's S, the OP travel after a reversal
+    before the stem moves, is ``b + stop``; J is ``b - stop``.  Standard errors follow the fit's own
+    parameters: where J is read, ``S = 2 b - J``; where stop is read, S and J share its error and b's.
+    """
+    b, b_se = vf.band_pct, vf.band_se
     # slips at a moving drive read J, the band comes from when they happen: stop is the difference;
     # slips at a held drive read stop, and J is the difference
     if np.isfinite(vf.jump_pct):
         j, j_se = vf.jump_pct, vf.jump_se
-        stop, stop_se = s - j, float(np.hypot(s_se, j_se))
+        stop, stop_se = b - j, float(np.hypot(b_se, j_se))
+        s_se = float(np.hypot(2 * b_se, j_se))
     else:
         stop = vf.stop_pct
         # a free gain trades off against the jump: the profile's width, where wider than the covariance's
-        stop_se = max(vf.stop_se, jump_profile_se(vf, record, s)) if np.isfinite(stop) else vf.stop_se
-        j, j_se = s - stop, float(np.hypot(s_se, stop_se))
-    if not (np.isfinite(s) and np.isfinite(stop)):
+        stop_se = max(vf.stop_se, jump_profile_se(vf, record, b)) if np.isfinite(stop) else vf.stop_se
+        j, j_se = b - stop, float(np.hypot(b_se, stop_se))
+        s_se = j_se
+    if not (np.isfinite(b) and np.isfinite(stop)):
         nan = float("nan")
         return Friction(nan, nan, nan, nan, nan, nan, nan, nan, int(vf.slips.read.sum()))
-    vf = replace(vf, stop_pct=stop, stop_se=stop_se)
-    fs = s * PCT_OF_500LBF_PER_PCT
-    stop_lbf = pct_to_lbf(vf.stop_pct * PCT_OF_500LBF_PER_PCT)
+    fs, stop_pct_of_500lbf = b * PCT_OF_500LBF_PER_PCT_OF_SPAN, stop * PCT_OF_500LBF_PER_PCT_OF_SPAN
+    s, j = band_and_jump_pct(fs, stop_pct_of_500lbf)
+    stop_lbf = pct_to_lbf(stop_pct_of_500lbf)
     fd_lbf = stop_lbf - VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs) - stop_lbf)
     return Friction(
         float(s),
         float(j),
-        float(s_se),
+        s_se,
         j_se,
         float(fs),
         float(lbf_to_pct(fd_lbf)),
-        s_se * PCT_OF_500LBF_PER_PCT,
-        vf.stop_se * PCT_OF_500LBF_PER_PCT,
+        b_se * PCT_OF_500LBF_PER_PCT_OF_SPAN,
+        stop_se * PCT_OF_500LBF_PER_PCT_OF_SPAN,
         int(vf.slips.read.sum()),
     )
 

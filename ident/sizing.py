@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from schemas.diagnosis import Process
+from sim.valve import friction_pct, friction_se_pct
 
 MODEL_ERROR_S = 0.20
 """Standard error of S from the model's mismatch, as a share of S (seeds 2026, 2027 of ``sim.plant_loops``)."""
@@ -44,8 +45,6 @@ band read passed; on a measured flow loop (OP up 0.42 % in steps while PV stood 
 slip) it withholds S 0.03 +- 0.01 % from a model whose PV missed the record entirely.  The
 travel over a stuck setpoint step's still phase (``detect.setpoint``) counts too: on 52 simulated
 sticky loops with such a step (seeds 2030-2032) it was 0.41-1.89 times the true S."""
-PCT_OF_500LBF_PER_PCT_OF_SPAN = 12.0 * 100.0 / 500.0
-"""S, J in % of span -> fs, fs - fd in % of 500 lbf (12 lbf per % of OP, ``sim.valve``)."""
 
 
 @dataclass(frozen=True)
@@ -67,10 +66,10 @@ class Sizing:
         return self.why is None
 
     def fs_fd_pct(self) -> tuple[float, float, float, float]:
-        """(fs, fd, fs_se, fd_se) in % of 500 lbf: fs = 12 S, fd = 12 (S - J) lbf."""
-        k = PCT_OF_500LBF_PER_PCT_OF_SPAN
-        stop_se = math.hypot(self.s_se_pct, self.j_se_pct)
-        return self.s_pct * k, (self.s_pct - self.j_pct) * k, self.s_se_pct * k, stop_se * k
+        """(fs, fd, fs_se, fd_se) in % of 500 lbf (``sim.valve.friction_pct``)."""
+        fs, fd = friction_pct(self.s_pct, self.j_pct)
+        fs_se, fd_se = friction_se_pct(self.s_se_pct, self.j_se_pct)
+        return float(fs), float(fd), float(fs_se), float(fd_se)
 
 
 def size(op_pct: np.ndarray, pv_pct: np.ndarray, ts_s: float, name: str = "loop", sp_pct=None) -> Sizing:
@@ -116,17 +115,18 @@ def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -
 
 def with_model_error(f):
     """``ident.fit.Friction`` with the model error added to its standard errors (in quadrature):
-    S's by ``MODEL_ERROR_S`` S, J's and stop's by ``MODEL_ERROR_J`` S."""
+    S's by ``MODEL_ERROR_S`` S, J's by ``MODEL_ERROR_J`` S, and fs's and fd's by what those two
+    make of them (``sim.valve.friction_se_pct``)."""
     if not math.isfinite(f.s_pct):
         return f
-    s_se = math.hypot(f.s_se_pct, MODEL_ERROR_S * f.s_pct)
-    k = PCT_OF_500LBF_PER_PCT_OF_SPAN
+    model_s, model_j = MODEL_ERROR_S * f.s_pct, MODEL_ERROR_J * f.s_pct
+    model_fs, model_fd = (float(v) for v in friction_se_pct(model_s, model_j))
     return replace(
         f,
-        s_se_pct=s_se,
-        j_se_pct=math.hypot(f.j_se_pct, MODEL_ERROR_J * f.s_pct),
-        fs_se_pct=s_se * k,
-        fd_se_pct=math.hypot(f.fd_se_pct, MODEL_ERROR_J * f.s_pct * k),
+        s_se_pct=math.hypot(f.s_se_pct, model_s),
+        j_se_pct=math.hypot(f.j_se_pct, model_j),
+        fs_se_pct=math.hypot(f.fs_se_pct, model_fs),
+        fd_se_pct=math.hypot(f.fd_se_pct, model_fd),
     )
 
 

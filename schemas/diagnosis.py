@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-DIAGNOSIS_VERSION = 1
+DIAGNOSIS_VERSION = 2
 
 
 class _Frozen(BaseModel):
@@ -29,7 +29,8 @@ class CauseCandidate(_Frozen):
 
 
 class Friction(_Frozen):
-    """A valve's friction under one model: S and J in % of span, fs and fd in % of 500 lbf (the thesis's valve)."""
+    """A valve's friction under one model: S (deadband + stickband, the OP travel after a reversal before the
+    stem moves) and J (the slip jump) in % of span, fs and fd in % of 500 lbf (the thesis's valve)."""
 
     s_pct: float | None
     j_pct: float | None
@@ -82,7 +83,7 @@ class ValveCheck(_Frozen):
 class DiagnosisReport(_Frozen):
     """What the canonical simulation gets wrong on one measured loop, why, and what fixing it gains."""
 
-    schema_version: Literal[1] = DIAGNOSIS_VERSION
+    schema_version: Literal[2] = DIAGNOSIS_VERSION
     loop_id: str
     n_samples: int
     sample_time_s: float
@@ -99,7 +100,10 @@ class DiagnosisReport(_Frozen):
     fd_pct: float | None
     fs_se_pct: float | None
     fd_se_pct: float | None
-    s_pct: float | None = Field(description="stiction band under the extended model, % of span")
+    s_pct: float | None = Field(
+        description="band S under the extended model, % of span: deadband + stickband, the OP travel after a "
+        "reversal before the stem moves (from diagnosis schema 2; before, the static band fs/12)"
+    )
     j_pct: float | None = Field(description="slip jump under the extended model, % of span")
     s_se_pct: float | None
     j_se_pct: float | None

@@ -48,8 +48,9 @@ class LoopTruth(BaseModel):
     loop_id: str
     fs_pct: float
     fd_pct: float
-    s_pct: float
-    j_pct: float
+    s_pct: float = Field(description="band S, % of span: (fs + fd)/12, the OP travel after a reversal before the "
+                         "stem moves (before stiction 0.2: fs/12)")
+    j_pct: float = Field(description="slip jump J, % of span: (fs - fd)/12")
     loop: str
     valve: str
     seed: int

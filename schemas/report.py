@@ -8,9 +8,11 @@ from pydantic import BaseModel, ConfigDict, Field
 
 SCHEMA_VERSION = 1
 """The version of the stream's messages (``schemas.messages``)."""
-REPORT_SCHEMA_VERSION = 2
+REPORT_SCHEMA_VERSION = 3
 """The report's version: 2 adds the verdict, the stiction probability, the likely cause, the process and
-the data checks, and nulls every friction number unless the verdict is ``stiction`` (README, migration)."""
+the data checks, and nulls every friction number unless the verdict is ``stiction``; 3 makes ``s_pct``
+Choudhury's band (deadband + stickband, the OP travel after a reversal before the stem moves: (fs + fd)/12
+where it was fs/12) (docs/reports.md, migration)."""
 
 Verdict = Literal["stiction", "other_cause", "no_oscillation", "bad_data"]
 
@@ -47,7 +49,7 @@ class StictionReport(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    schema_version: Literal[2] = REPORT_SCHEMA_VERSION
+    schema_version: Literal[3] = REPORT_SCHEMA_VERSION
     loop_id: str
     verdict: Verdict = Field(
         description="what the loop is doing: stiction (the friction numbers are its valve's), other_cause "
@@ -72,8 +74,14 @@ class StictionReport(BaseModel):
     process: ProcessInfo = Field(description="the process the friction is read under")
     fs_pct: float | None = Field(description="static friction, percent of 500 lbf; None if not quantifiable")
     fd_pct: float | None = Field(description="dynamic friction, percent of 500 lbf")
-    s_pct: float | None = Field(description="stiction band S = fs/12 in percent of span (Choudhury)")
-    j_pct: float | None = Field(description="slip jump J = (fs - fd)/12 in percent of span")
+    s_pct: float | None = Field(
+        description="band S in percent of span (Choudhury, Thornhill & Shah 2005): deadband + stickband, the OP "
+        "travel after a reversal before the stem moves; (fs + fd)/12 lbf per % for the thesis's valve "
+        "(from report schema 3; before, fs/12)"
+    )
+    j_pct: float | None = Field(
+        description="slip jump J in percent of span: how far the stem jumps when it breaks away; (fs - fd)/12"
+    )
     s_se_pct: float | None = Field(description="uncertainty (one standard error) of s_pct")
     j_se_pct: float | None = Field(description="uncertainty (one standard error) of j_pct")
     fs_se_pct: float | None = Field(description="uncertainty (one standard error) of fs_pct")

@@ -62,6 +62,9 @@ class ValveConstants:
 
 VALVE = ValveConstants()
 
+PCT_OF_500LBF_PER_PCT_OF_SPAN = VALVE.lbf_per_pct * 100.0 / FRICTION_FULL_SCALE_LBF
+"""A band in % of span (OP - MV) as friction in % of 500 lbf: 12 lbf per % of OP."""
+
 
 def pct_to_lbf(friction_pct):
     """Friction in percent of 500 lbf (the thesis convention) to lbf."""
@@ -73,9 +76,38 @@ def lbf_to_pct(friction_lbf):
 
 
 def band_and_jump_pct(fs_pct, fd_pct, valve: ValveConstants = VALVE):
-    """Choudhury's S (stiction band) and J (slip jump), percent of span, for this valve."""
+    """Choudhury's S and J (percent of span) of a valve with static friction fs and Coulomb friction fd
+    (percent of 500 lbf): the only place this relation is written.
+
+    S is the band of the two-parameter description (Choudhury, Thornhill & Shah 2005; Kano 2004):
+    deadband + stickband, the travel of the valve's input after a reversal before the stem moves.
+    A stem that stopped with the Coulomb force on one side (``F = fd``) moves the other way once
+    ``F = -fs``: OP travels ``(fs + fd) / 12 lbf per %``.  J is the slip: a stuck stem breaks away at
+    ``fs`` and stops where the force left is ``fd``, ``(fs - fd) / 12``.  In He's terms (He et al. 2007)
+    ``S = fs + fd`` and ``J = fs - fd``.  (The slip stops a residual of under 0.1 lbf short of fd,
+    ``stop_residual_in``: 0.01 % of span, left out.)
+    """
     fs_lbf, fd_lbf = pct_to_lbf(fs_pct), pct_to_lbf(fd_pct)
-    return fs_lbf / valve.lbf_per_pct, (fs_lbf - fd_lbf) / valve.lbf_per_pct
+    return (fs_lbf + fd_lbf) / valve.lbf_per_pct, (fs_lbf - fd_lbf) / valve.lbf_per_pct
+
+
+def friction_pct(s_pct, j_pct, valve: ValveConstants = VALVE):
+    """(fs, fd) in percent of 500 lbf of a valve with band S and jump J (percent of span): the
+    inverse of ``band_and_jump_pct``, ``fs = 12 (S + J) / 2``, ``fd = 12 (S - J) / 2`` lbf."""
+    s, j = np.asarray(s_pct, dtype=float), np.asarray(j_pct, dtype=float)
+    return lbf_to_pct(valve.lbf_per_pct * (s + j) / 2), lbf_to_pct(valve.lbf_per_pct * (s - j) / 2)
+
+
+def band_and_jump_se_pct(fs_se_pct, fd_se_pct, valve: ValveConstants = VALVE):
+    """Standard errors of (S, J) from those of (fs, fd), taken as independent errors."""
+    se = np.hypot(pct_to_lbf(fs_se_pct), pct_to_lbf(fd_se_pct)) / valve.lbf_per_pct
+    return se, se
+
+
+def friction_se_pct(s_se_pct, j_se_pct, valve: ValveConstants = VALVE):
+    """Standard errors of (fs, fd) from those of (S, J), taken as independent errors."""
+    se = lbf_to_pct(valve.lbf_per_pct * np.hypot(s_se_pct, j_se_pct) / 2)
+    return se, se
 
 
 _TABLE_GAP_LBF = np.concatenate([[0.0], np.geomspace(1e-3, 2e3, 160)])

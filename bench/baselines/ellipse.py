@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from agent.acf import acf_period
-from sim.valve import FRICTION_FULL_SCALE_LBF, VALVE
+from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 
 
 def _band_pass(x: np.ndarray, period_s: float, ts_s: float) -> np.ndarray:
@@ -73,5 +73,6 @@ def apparent_stiction(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0) -> np.n
         if coef is None:
             continue
         band_pct = width_along_x(coef)
-        out[i, 0] = band_pct * VALVE.lbf_per_pct * 100.0 / FRICTION_FULL_SCALE_LBF
+        # the thesis baseline: the apparent band taken as the static band fs / 12 (Choudhury 2008 reads S)
+        out[i, 0] = band_pct * PCT_OF_500LBF_PER_PCT_OF_SPAN
     return out

@@ -38,7 +38,7 @@ def test_noise_free_cases_are_read_physically_and_exactly(quantifier, cases):
     for rep, spec in zip(reports, list(specs.values())[:10], strict=True):
         assert rep.method == "physical" and not rep.denoised
         errors += [abs(rep.fs_pct - spec.fs_pct), abs(rep.fd_pct - spec.fd_pct)]
-        assert rep.s_pct == pytest.approx(rep.fs_pct * 5 / 12)
+        assert rep.s_pct == pytest.approx((rep.fs_pct + rep.fd_pct) * 5 / 12)  # Choudhury: S = (fs + fd) / 12
     assert np.mean(errors) < 0.1
 
 
@@ -67,8 +67,8 @@ def test_without_flags_the_thesis_loop_is_identified_and_read_as_if_declared(qua
         assert rep.process.source == "identified" and told.process.source == "declared"
         assert (rep.verdict, rep.method) == (told.verdict, told.method)
         assert rep.fs_pct == told.fs_pct and rep.fd_pct == told.fd_pct
-        if rep.verdict == "stiction":
-            assert rep.thesis.fs_pct is not None
+        if rep.verdict == "stiction":  # the thesis chain's reading, or why no valve can have it
+            assert rep.thesis.fs_pct is not None or any(w.startswith("thesis estimate withheld") for w in rep.warnings)
         else:  # no friction numbers for a loop the detector does not call sticky, and a warning says why
             assert rep.fs_pct is None and rep.s_pct is None and rep.thesis.fs_pct is None and rep.method == "none"
             assert any("no friction numbers" in w for w in rep.warnings)
@@ -274,7 +274,7 @@ def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_pro
             assert any(w.startswith("S and J not read under the identified") for w in rep.warnings)
     for loop, rep in sized:
         assert abs(rep.s_pct - loop.s_pct) <= 2 * rep.s_se_pct and abs(rep.j_pct - loop.j_pct) <= 2 * rep.j_se_pct
-        assert rep.fs_pct == pytest.approx(rep.s_pct * 2.4)
+        assert rep.fs_pct == pytest.approx((rep.s_pct + rep.j_pct) * 1.2)  # fs = 12 lbf/% (S + J) / 2, of 500 lbf
     # loops not called sticky are not identified; the thesis's loop keeps its own reading
     others = [rep for rep in reports if rep.verdict != "stiction"]
     assert all(rep.process.source == "none" for rep in others)

@@ -44,7 +44,8 @@ def test_a_sized_loops_reports_carry_its_process_and_numbers_in_place_of_the_war
     plan.finished("L1", Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 900.0, now_s=0.0)
     r = plan.apply(_report("L1"))
     assert r.method == "identified" and r.s_pct == 2.0 and r.j_se_pct == 0.6 and r.estimate_t_end_s == 900.0
-    assert r.fs_pct == 4.8 and math.isclose(r.fd_pct, 3.6)  # 12 lbf per % of span, 5 lbf per % of 500 lbf
+    # fs = 12 lbf/% (S + J)/2 and fd = 12 lbf/% (S - J)/2, in % of 500 lbf (5 lbf each)
+    assert math.isclose(r.fs_pct, 3.0) and math.isclose(r.fd_pct, 1.8)
     assert r.process.source == "identified" and r.process.time_constant_s == 12.0 and r.process.description
     assert NOT_READ_WARNING not in r.warnings and NOT_IDENTIFIED not in r.warnings and NOTE in r.warnings
     # the same sizing never decorates a report that is not sticky, or whose process is known

@@ -16,16 +16,21 @@ def _report(**kw):
 
 
 def test_the_uncertainty_adds_the_model_error_to_the_fits_own():
-    f = Friction(10.0, 4.0, 0.1, 0.2, 24.0, 14.4, 0.24, 0.5, 6)
+    # S 10 %, J 4 %: fs = 12 lbf/% * 7 %, fd = 12 lbf/% * 3 %, in % of 500 lbf (5 lbf each)
+    f = Friction(10.0, 4.0, 0.1, 0.2, 16.8, 7.2, 0.24, 0.5, 6)
     g = with_model_error(f)
-    assert (g.s_pct, g.j_pct, g.fs_pct, g.fd_pct) == (10.0, 4.0, 24.0, 14.4)
+    assert (g.s_pct, g.j_pct, g.fs_pct, g.fd_pct) == (10.0, 4.0, 16.8, 7.2)
     assert g.s_se_pct == pytest.approx(math.hypot(0.1, MODEL_ERROR_S * 10.0))
     assert g.j_se_pct == pytest.approx(math.hypot(0.2, MODEL_ERROR_J * 10.0))
-    assert g.fs_se_pct == pytest.approx(2.4 * g.s_se_pct) and g.fd_se_pct > f.fd_se_pct
+    # fs = 1.2 (S + J), fd = 1.2 (S - J): the model's errors of S and J reach both
+    model_fs = 1.2 * math.hypot(MODEL_ERROR_S * 10.0, MODEL_ERROR_J * 10.0)
+    assert g.fs_se_pct == pytest.approx(math.hypot(0.24, model_fs)) and g.fd_se_pct == pytest.approx(
+        math.hypot(0.5, model_fs)
+    )
     s = from_report(_report())
     assert s.read and (s.s_pct, s.j_pct, s.s_se_pct, s.j_se_pct) == (10.0, 4.0, 0.1, 0.2)
-    fs, fd, fs_se, _ = s.fs_fd_pct()  # 12 lbf per % of span, 5 lbf per % of 500 lbf
-    assert (fs, fd) == pytest.approx((24.0, 14.4)) and fs_se == pytest.approx(0.24)
+    fs, fd, fs_se, fd_se = s.fs_fd_pct()
+    assert (fs, fd) == pytest.approx((16.8, 7.2)) and fs_se == fd_se == pytest.approx(1.2 * math.hypot(0.1, 0.2))
 
 
 @pytest.mark.parametrize(

@@ -2,8 +2,18 @@
 
 import numpy as np
 
+from sim.loop import LoopSpec, simulate
 from sim.reference import IN_PER_PCT, RefState, reference_interval
-from sim.valve import VALVE, Friction, band_and_jump_pct, lagged_valve_step, pct_to_lbf, stop_residual_in, valve_step
+from sim.valve import (
+    VALVE,
+    Friction,
+    band_and_jump_pct,
+    friction_pct,
+    lagged_valve_step,
+    pct_to_lbf,
+    stop_residual_in,
+    valve_step,
+)
 
 
 def test_stuck_stem_does_not_move_while_force_within_static_friction():
@@ -78,7 +88,46 @@ def test_he_model_matches_its_published_algorithm():
 
 def test_band_and_jump_for_this_valve():
     s, j = band_and_jump_pct(60.0, 20.0)
-    np.testing.assert_allclose([s, j], [300.0 / 12.0, 200.0 / 12.0])
+    np.testing.assert_allclose([s, j], [400.0 / 12.0, 200.0 / 12.0])
+    np.testing.assert_allclose(friction_pct(s, j), [60.0, 20.0])
+
+
+def _reversal_travels_pct(op: np.ndarray, mv: np.ndarray) -> np.ndarray:
+    """OP's travel from its extreme after each stem move until the stem moves back (a reversal).
+
+    The stem can only break away at a sample: the travel is taken halfway between the last sample
+    it stayed and the one it moved (a bracket of one OP step)."""
+    step = np.diff(mv)
+    moves = np.flatnonzero(np.abs(step) > 1e-9)
+    out = []
+    for a, b in zip(moves[:-1], moves[1:], strict=True):
+        d = np.sign(step[a])
+        if np.sign(step[b]) != -d:
+            continue
+        extreme = a + int(np.argmax(d * op[a : b + 1]))
+        before = abs(op[b - 1] - op[extreme]) if b - 1 >= extreme else 0.0
+        out.append(0.5 * (before + abs(op[b] - op[extreme])))
+    return np.array(out)
+
+
+def test_band_is_the_op_travel_after_a_reversal_before_the_stem_moves():
+    """Choudhury's S measured on the canonical loop as a valve travel test reads it, and J as the
+    smallest slip (one that starts just past the band; later ones overshoot by OP's last step)."""
+    grid = [(fs, fd) for fs in (10.0, 30.0, 55.0, 80.0, 100.0) for fd in (0.1 * fs, 0.5 * fs, 0.9 * fs)]
+    r = simulate([LoopSpec(fs, fd) for fs, fd in grid], duration_s=4000.0).kept()
+    s_err, j_err = [], []
+    for i, (fs, fd) in enumerate(grid):
+        s, j = band_and_jump_pct(fs, fd)
+        travels = _reversal_travels_pct(r.op[i], r.mv[i])
+        assert travels.size >= 10, (fs, fd)
+        s_err.append(np.median(travels) / s - 1)
+        jumps = np.abs(np.diff(r.mv[i]))
+        j_err.append(jumps[jumps > 1e-9].min() / j - 1)
+    assert abs(np.median(s_err)) < 0.03 and np.max(np.abs(s_err)) < 0.05, s_err
+    assert abs(np.median(j_err)) < 0.03 and np.max(np.abs(j_err)) < 0.05, j_err
+    # the static band alone (fs / 12, the convention before) is far from what a travel test measures
+    static = [fs / 12 * 5 for fs, _ in grid]
+    assert np.median([np.median(_reversal_travels_pct(r.op[i], r.mv[i])) / static[i] for i in range(len(grid))]) > 1.3
 
 
 def _lagged_by_substeps(p0, op, tau, mv, friction, n=50000):

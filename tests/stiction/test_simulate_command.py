@@ -24,8 +24,9 @@ def test_console_script_writes_a_stiction_loop(tmp_path):
     data = _read(out)
     assert data.dtype.names == ("t_s", "op", "pv", "sp", "mv")
     assert data.size == 1000 and data["t_s"][0] == 1000
-    # the stiction limit cycle: MV holds still most of the time, a slip starts once OP is S = fs/12 away
-    # and leaves the stem fd/12 behind OP (fs = 250 lbf, fd = 100 lbf)
+    # the stiction limit cycle: MV holds still most of the time, a slip starts once OP is fs/12 away
+    # and leaves the stem fd/12 behind OP (fs = 250 lbf, fd = 100 lbf): after a reversal OP travels
+    # S = (fs + fd)/12 before the stem moves
     slipped = np.diff(data["mv"]) != 0
     assert 0.02 < slipped.mean() < 0.1
     gap_before = np.abs(data["op"][:-1] - data["mv"][:-1])
@@ -33,7 +34,7 @@ def test_console_script_writes_a_stiction_loop(tmp_path):
     assert np.all(gap_before[slipped] > 250 / 12) and np.all(gap_before[~slipped] <= 250 / 12 + 1e-6)
     np.testing.assert_allclose(gap_after[slipped], 100 / 12, atol=0.01)
     truth = json.loads((tmp_path / "loop.truth.json").read_text())
-    assert truth["fs_pct"] == 50 and truth["s_pct"] == pytest.approx(250 / 12)
+    assert truth["fs_pct"] == 50 and truth["s_pct"] == pytest.approx(350 / 12) and truth["j_pct"] == pytest.approx(150 / 12)
 
 
 def test_extension_flags_reach_the_loop(tmp_path):
