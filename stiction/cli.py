@@ -23,18 +23,31 @@ COMMANDS = {
     "simulate": "write simulated loops as historian-export CSVs, or the training grid",
     "train": "rebuild every model offline from the simulator",
     "quantify": "stiction reports for historian exports",
+    "report": "one HTML page for a plant's loops, ranked, with the evidence (from exports or a live key space)",
     "diagnose": "what the canonical simulation gets wrong on measured loops, why, and what fixing it gains",
     "bench": "benchmarks: simulator speed against the reference",
 }
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="stiction", description="Quantify control-valve stiction (fs, fd).")
+    from stiction import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="stiction",
+        description="Which control valves stick, and how much: band S and slip J in % of span.",
+        epilog="Example: stiction quantify exports/ --rank   (each command's --help has its own example)",
+    )
+    parser.add_argument("--version", action="version", version=f"stiction {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv for debug)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, text in COMMANDS.items():
         module = importlib.import_module(f"stiction.commands.{name}")
-        p = sub.add_parser(name, help=text, description=(module.__doc__ or text).replace("``", "").strip())
+        p = sub.add_parser(
+            name,
+            help=text,
+            description=(module.__doc__ or text).replace("``", "").strip(),
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
         module.add_arguments(p)
         p.set_defaults(_module=module)
     return parser

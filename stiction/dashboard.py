@@ -53,13 +53,10 @@ class Dashboard:
     def fetch_latest(self, timeout_s: float = 1.0) -> None:
         """Ask the agents for every loop's latest report: a report can be completed after it was
         published (a background sizing), and ``get`` answers with it."""
-        for reply in self._session.get(keys.all_reports(self.prefix), timeout=timeout_s):
-            if reply.ok is None:
-                continue
-            report = self._read(StictionReport, reply.ok)
-            if report is None:
-                continue
-            with self._lock:
+        latest, bad = latest_reports(self._session, self.prefix, timeout_s)
+        with self._lock:
+            self.bad += bad
+            for report in latest.values():
                 held = self.reports.get(report.loop_id)
                 if held is None or (report.t_end_s or 0.0) >= (held.t_end_s or 0.0):
                     self.reports[report.loop_id] = report
@@ -71,3 +68,22 @@ class Dashboard:
     def close(self) -> None:
         for s in self._subs:
             s.undeclare()
+
+
+def latest_reports(session, prefix: str, timeout_s: float) -> tuple[dict[str, StictionReport], int]:
+    """Every loop's latest report in the key space (a ``get`` the agents answer), and how many replies
+    did not validate.  Where two agents answer for one loop (a hand-over), the later window wins."""
+    latest: dict[str, StictionReport] = {}
+    bad = 0
+    for reply in session.get(keys.all_reports(prefix), timeout=timeout_s):
+        if reply.ok is None:
+            continue
+        try:
+            report = StictionReport.model_validate_json(reply.ok.payload.to_bytes())
+        except ValueError:
+            bad += 1
+            continue
+        held = latest.get(report.loop_id)
+        if held is None or (report.t_end_s or 0.0) >= (held.t_end_s or 0.0):
+            latest[report.loop_id] = report
+    return latest, bad

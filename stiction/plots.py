@@ -34,11 +34,12 @@ def _title(report) -> str:
     return "\n".join(lines)
 
 
-def plot_loop(out: Path, window, report, details) -> Path:
-    """OP and PV over time; the OP-PV curve before and after denoising; the estimate in the title."""
+def plot_loop(out, window, report, details, title: bool = True, dpi: int = 90):
+    """OP and PV over time; the OP-PV curve before and after denoising; the estimate in the title
+    (``title=False``: none, where the page around the figure says it).  ``out``: a path or a binary file."""
     t = (window.t_end_s or 0.0) - window.ts_s * np.arange(len(window.op))[::-1]
-    title = _title(report)
-    title_in = TITLE_LINE_IN * (title.count("\n") + 1) + 0.1
+    title = _title(report) if title else ""
+    title_in = TITLE_LINE_IN * (title.count("\n") + 1) + 0.1 if title else 0.0
     height_in = 4.2 + title_in
     fig, (ax_t, ax_c) = plt.subplots(1, 2, figsize=(13, height_in), gridspec_kw={"width_ratios": [1.6, 1]})
     ax_t.plot(t, window.op, lw=0.9, color="tab:blue", label="OP")
@@ -55,7 +56,7 @@ def plot_loop(out: Path, window, report, details) -> Path:
     handles = ax_t.get_legend_handles_labels()[0] + ax_pv.get_legend_handles_labels()[0]
     ax_t.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(handles), fontsize=8)
     ax_c.plot(window.op, window.pv, ".", ms=2.5, color="0.6", label="measured")
-    if getattr(report, "oscillating", True):
+    if getattr(report, "oscillating", True) and details is not None:
         ax_c.plot(details.denoised[:, 0], details.denoised[:, 1], ".", ms=2.5, color="tab:blue",
                   label="denoised (each sample on the curve)")  # fmt: skip
         ax_c.plot(details.curve[:, 0], details.curve[:, 1], "-", lw=1.5, color="tab:red", label="INLPCA curve")
@@ -64,9 +65,10 @@ def plot_loop(out: Path, window, report, details) -> Path:
     ax_c.set_xlabel("OP, percent")
     ax_c.set_ylabel("PV")
     ax_c.legend(loc="best", fontsize=8)
-    fig.suptitle(title, fontsize=10)
+    if title:
+        fig.suptitle(title, fontsize=10)
     fig.tight_layout()  # makes room for the suptitle (matplotlib >= 3.3)
-    fig.savefig(out, dpi=90)
+    fig.savefig(out, dpi=dpi, format="png")
     plt.close(fig)
     return out
 

@@ -18,7 +18,8 @@ COLUMNS = ("rank", "loop", "verdict", "stiction_probability", "s_pct", "s_se_pct
            "likely_cause", "amplitude_pct", "period_s", "warnings", "file")  # fmt: skip
 
 
-def _key(item: tuple[str, StictionReport]):
+def rank_key(item: tuple[str, StictionReport]):
+    """Sort key of (source, report): sticky by band S, then oscillating by amplitude, then the rest."""
     r = item[1]
     size = r.s_pct if r.verdict == "stiction" else r.amplitude_pct
     return (ORDER[r.verdict], -(size or 0.0), -(r.stiction_probability or 0.0), r.loop_id)
@@ -26,7 +27,7 @@ def _key(item: tuple[str, StictionReport]):
 
 def ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
     rows = []
-    for k, (path, r) in enumerate(sorted(reports, key=_key), start=1):
+    for k, (path, r) in enumerate(sorted(reports, key=rank_key), start=1):
         rows.append({"rank": k, "loop": r.loop_id, "verdict": r.verdict,
                      "stiction_probability": r.stiction_probability, "s_pct": r.s_pct, "s_se_pct": r.s_se_pct,
                      "j_pct": r.j_pct, "j_se_pct": r.j_se_pct, "likely_cause": r.likely_cause,

@@ -14,11 +14,13 @@ DEFAULT_WINDOW = 3600
 """Samples analysed per file by default: the last DEFAULT_WINDOW (``--last``/``--every`` to choose)."""
 
 
-def add_arguments(p: argparse.ArgumentParser, fields: tuple[str, ...]) -> None:
+def add_arguments(p: argparse.ArgumentParser, fields: tuple[str, ...], paths: str = "+", json: bool = True) -> None:
+    """The export flags; ``paths`` is the paths' nargs, ``json`` whether the command prints JSON Lines."""
     p.add_argument(
-        "paths", nargs="+", type=Path, metavar="PATH", help="historian exports (CSV or Parquet) or folders of them"
+        "paths", nargs=paths, type=Path, metavar="PATH", help="historian exports (CSV or Parquet) or folders of them"
     )
-    p.add_argument("--json", action="store_true", help="one JSON object per window (JSON Lines)")
+    if json:
+        p.add_argument("--json", action="store_true", help="one JSON object per window (JSON Lines)")
     p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
     for field in fields:
         p.add_argument(

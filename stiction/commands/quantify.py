@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections.abc import Iterator
 from concurrent.futures import Future
 from dataclasses import dataclass
 from functools import partial
@@ -19,6 +20,19 @@ FIELDS = ("op", "pv", "t", "sp", "mode")
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     exports.add_arguments(p, FIELDS)
+    add_method_arguments(p)
+    p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
+    p.add_argument(
+        "--rank",
+        action="store_true",
+        help="plant triage: after every file, a table of the loops ranked by what their valves cost "
+        "(sticky first, by band S, then oscillating loops by amplitude)",
+    )
+    p.add_argument("--csv", type=Path, metavar="FILE", help="with --rank: write the ranked table as CSV too")
+
+
+def add_method_arguments(p: argparse.ArgumentParser) -> None:
+    """How the reports are made (``quantify`` and ``report`` share these)."""
     p.add_argument("--models", type=Path, help="directory with the ONNX models and their cards")
     p.add_argument(
         "--process",
@@ -46,14 +60,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="with --every: a sticky loop's process is identified and S and J read once in this many minutes "
         "of its data, the windows between carrying that reading (default 60, as the agent)",
     )
-    p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
-    p.add_argument(
-        "--rank",
-        action="store_true",
-        help="plant triage: after every file, a table of the loops ranked by what their valves cost "
-        "(sticky first, by band S, then oscillating loops by amplitude)",
-    )
-    p.add_argument("--csv", type=Path, metavar="FILE", help="with --rank: write the ranked table as CSV too")
 
 
 def _summary(path: str, r) -> str:
@@ -122,24 +128,34 @@ class _Item:
     fresh: bool = False
 
 
-def run(args: argparse.Namespace) -> int:
+@dataclass(frozen=True)
+class Quantified:
+    """One window's report as the command shows it: sizing and the export's warnings in it."""
+
+    path: Path
+    export: object
+    window: object
+    report: object
+    details: object
+
+
+def quantified(args: argparse.Namespace, command: str, failed: list[str], details: bool) -> Iterator[Quantified]:
+    """Every window of every export in ``args.paths``, quantified and sized, in order; a file's
+    error is printed as one line and appended to ``failed`` (one bad file never stops the others).
+    ``details``: fit the INLPCA curve and keep the identified model's PV, for the plots."""
     from agent.pipeline import Quantifier, Window
     from agent.window import MIN_SAMPLES
 
-    if args.csv and not args.rank:
-        raise StictionError("--csv FILE goes with --rank")
     if args.size_every < 0:
         raise StictionError(f"--size-every {args.size_every:g}: minutes, at least 0")
     if args.jobs < 1:
         raise StictionError(f"--jobs {args.jobs}: at least 1")
     quantifier = Quantifier(args.models)
-    failed: list[str] = []
-    ranked: list = []
     sized: dict[str, tuple] = {}  # file -> (end of the window its last sizing was made from, that sizing's job)
     pool = None
     pending: list[_Item] = []
     try:
-        for path, export in exports.windows(args, "quantify", FIELDS, MIN_SAMPLES, failed):
+        for path, export in exports.windows(args, command, FIELDS, MIN_SAMPLES, failed):
             try:
                 window = Window(
                     loop_id=path.stem,
@@ -150,21 +166,40 @@ def run(args: argparse.Namespace) -> int:
                     process=args.process,
                     sp=export.sp,
                 )
-                # the plot draws the INLPCA curve: fit it on every window
-                result = quantifier.results([window], details=bool(args.plot))[0]
+                result = quantifier.results([window], details=details)[0]
             except StictionError as e:  # one bad file never stops the others
-                failed.append(exports.report_error("quantify", path, e))
+                failed.append(exports.report_error(command, path, e))
                 continue
             pending.append(_Item(path, export, window, result))
             if len(pending) >= CHUNK:
                 pool = _size(args, pending, sized, pool)
-                _finish(args, pending, ranked)
+                yield from _finished(pending)
                 pending = []
         pool = _size(args, pending, sized, pool)
-        _finish(args, pending, ranked)
+        yield from _finished(pending)
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.csv and not args.rank:
+        raise StictionError("--csv FILE goes with --rank")
+    failed: list[str] = []
+    ranked: list = []
+    # the plot draws the INLPCA curve: fit it on every window
+    for q in quantified(args, "quantify", failed, details=bool(args.plot)):
+        if args.rank:
+            ranked.append((str(q.path), q.report))
+            continue
+        exports.show(
+            args,
+            q.path,
+            q.export,
+            q.report,
+            _summary(str(q.path), q.report),
+            partial(_plot, window=q.window, report=q.report, details=q.details),
+        )
     if args.rank:
         from stiction.ranking import print_ranking, write_csv
 
@@ -200,8 +235,8 @@ def _size(args, items: list[_Item], sized: dict, pool):
     return pool
 
 
-def _finish(args, items: list[_Item], ranked: list) -> None:
-    """The windows' reports, in order, with their sizings: printed, plotted or kept for the ranking."""
+def _finished(items: list[_Item]) -> Iterator[Quantified]:
+    """The windows' reports, in order, with their sizings and the export's warnings."""
     from agent.identified import with_sizing_and_model
 
     for item in items:
@@ -211,14 +246,4 @@ def _finish(args, items: list[_Item], ranked: list) -> None:
             report, details = with_sizing_and_model(report, details, item.job.result(), item.job_t_end_s, note)
         if item.export.warnings:
             report = report.model_copy(update={"warnings": [*report.warnings, *item.export.warnings]})
-        if args.rank:
-            ranked.append((str(item.path), report))
-            continue
-        exports.show(
-            args,
-            item.path,
-            item.export,
-            report,
-            _summary(str(item.path), report),
-            partial(_plot, window=item.window, report=report, details=details),
-        )
+        yield Quantified(item.path, item.export, item.window, report, details)
