@@ -139,10 +139,14 @@ class Quantified:
     details: object
 
 
-def quantified(args: argparse.Namespace, command: str, failed: list[str], details: bool) -> Iterator[Quantified]:
-    """Every window of every export in ``args.paths``, quantified and sized, in order; a file's
-    error is printed as one line and appended to ``failed`` (one bad file never stops the others).
-    ``details``: fit the INLPCA curve and keep the identified model's PV, for the plots."""
+def quantified(
+    args: argparse.Namespace, command: str, failed: list[str], details: bool, in_order: bool = True
+) -> Iterator[Quantified]:
+    """Every window of every export in ``args.paths``, quantified and sized; a file's error is
+    printed as one line and appended to ``failed`` (one bad file never stops the others).
+    ``details``: fit the INLPCA curve and keep the identified model's PV, for the plots.
+    ``in_order=False``: within a chunk, the windows that wait for no sizing come first, so that
+    their caller's work (drawing them) overlaps the sizings running on the workers."""
     from agent.pipeline import Quantifier, Window
     from agent.window import MIN_SAMPLES
 
@@ -154,6 +158,7 @@ def quantified(args: argparse.Namespace, command: str, failed: list[str], detail
     sized: dict[str, tuple] = {}  # file -> (end of the window its last sizing was made from, that sizing's job)
     pool = None
     pending: list[_Item] = []
+    started: list[_Item] = []  # the chunk before: its sizings run while this one is read
     try:
         for path, export in exports.windows(args, command, FIELDS, MIN_SAMPLES, failed):
             try:
@@ -173,10 +178,11 @@ def quantified(args: argparse.Namespace, command: str, failed: list[str], detail
             pending.append(_Item(path, export, window, result))
             if len(pending) >= CHUNK:
                 pool = _size(args, pending, sized, pool)
-                yield from _finished(pending)
-                pending = []
+                yield from _finished(started, in_order)
+                started, pending = pending, []
         pool = _size(args, pending, sized, pool)
-        yield from _finished(pending)
+        yield from _finished(started, in_order)
+        yield from _finished(pending, in_order)
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
@@ -235,10 +241,13 @@ def _size(args, items: list[_Item], sized: dict, pool):
     return pool
 
 
-def _finished(items: list[_Item]) -> Iterator[Quantified]:
-    """The windows' reports, in order, with their sizings and the export's warnings."""
+def _finished(items: list[_Item], in_order: bool = True) -> Iterator[Quantified]:
+    """The windows' reports with their sizings and the export's warnings: in order, or (``in_order``
+    false) those without a sizing to wait for first."""
     from agent.identified import with_sizing_and_model
 
+    if not in_order:
+        items = sorted(items, key=lambda item: item.job is not None)  # stable: otherwise in order
     for item in items:
         report, details = item.result.report, item.result.details
         if item.job is not None:

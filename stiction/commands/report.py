@@ -71,7 +71,8 @@ def _from_exports(args: argparse.Namespace):
 
     failed: list[str] = []
     entries = []
-    for q in quantify.quantified(args, "report", failed, details=True):
+    # the page is ranked: the order they come in does not matter, and drawing overlaps the sizings
+    for q in quantify.quantified(args, "report", failed, details=True, in_order=False):
         entries.append(page.LoopEntry(str(q.path), q.report, page.figure_png(q.window, q.report, q.details)))
         if sys.stderr.isatty():  # a progress line for people, nothing in a log
             print(f"\r{len(entries)} loops read", end="", file=sys.stderr, flush=True)
