@@ -12,7 +12,7 @@ from detect.verdict import LEANS_AT
 from schemas.errors import InputError
 from schemas.report import StictionReport
 from sim.grid import case_specs
-from sim.loop import simulate
+from sim.loop import LoopSpec, simulate
 
 
 @pytest.fixture(scope="module")
@@ -338,3 +338,28 @@ def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantif
     assert any(w.startswith("stuck valve: OP ramped in a straight line while PV stood still") for w in report.warnings)
     assert report.s_pct is None and report.method == "none"
     assert any("while PV stood still" in w for w in report.warnings)
+
+
+def test_every_method_reads_the_band_a_travel_test_measures(quantifier):
+    """S as a valve travel test measures it on the record (OP's travel after a reversal before the stem
+    moves): the physical, learned and identified readings agree with it within their standard errors."""
+    from ident.sizing import size
+    from sim.valve import band_and_jump_pct, band_and_jump_se_pct
+    from tests.sim.test_valve import _reversal_travels_pct
+
+    specs = [LoopSpec(40.0, 15.0, seed=3), LoopSpec(70.0, 50.0, seed=4), LoopSpec(25.0, 5.0, seed=5)]
+    full = simulate(specs)
+    r = full.kept()
+    reports = quantifier.quantify(_windows({f"L{i}": s for i, s in enumerate(specs)}, r))
+    for i, (spec, rep) in enumerate(zip(specs, reports, strict=True)):
+        s_true = float(band_and_jump_pct(spec.fs_pct, spec.fd_pct)[0])
+        assert np.median(_reversal_travels_pct(full.op[i], full.mv[i])) == pytest.approx(s_true, rel=0.02)
+        assert rep.verdict == "stiction" and abs(rep.s_pct - s_true) <= 2 * rep.s_se_pct + 0.01 * s_true
+        for e in (rep.physical, rep.learned):
+            s = float(band_and_jump_pct(e.fs_pct, e.fd_pct)[0])
+            se = float(band_and_jump_se_pct(e.fs_se_pct, e.fd_se_pct)[0])
+            assert abs(s - s_true) <= 2 * se + 0.01 * s_true, (spec, e)
+    identified = size(r.op[0], r.pv[0], 1.0)  # seconds: one loop
+    s_true = float(band_and_jump_pct(specs[0].fs_pct, specs[0].fd_pct)[0])
+    assert identified.read and abs(identified.s_pct - s_true) <= 2 * identified.s_se_pct
+    assert abs(identified.s_pct - s_true) < 0.05 * s_true  # an estimate, not just an interval
