@@ -29,6 +29,23 @@ COMMANDS = {
 }
 
 
+EXAMPLES = {
+    "demo": "stiction demo --loops 40 --seconds 60 --rerun spawn",
+    "sim": "stiction sim --loops 200 --speed 10 --listen tcp/127.0.0.1:7447",
+    "agent": "stiction agent --connect tcp/127.0.0.1:7447 --rerun serve",
+    "plant": "stiction plant --loops 100 --endpoint opc.tcp://127.0.0.1:4840 --loop-file loops.toml",
+    "bridge": "stiction bridge opcua --loop-file loops.toml --listen tcp/127.0.0.1:7447",
+    "replay": "stiction replay ../shared/data/stictiongpt_plant/csv --speed 100",
+    "simulate": "stiction simulate --fs-pct 50 --fd-pct 30 --out loop.csv",
+    "train": "stiction train --detector",
+    "quantify": "stiction quantify exports/ --rank --csv ranked.csv",
+    "report": "stiction report exports/ --out plant-report",
+    "diagnose": "stiction diagnose exports/FIC101.csv --plot plots/",
+    "bench": "stiction bench detect ../shared/data/stictiongpt_plant/csv --loops 40",
+}
+"""One line a user can copy, shown at the end of each command's --help."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     from stiction import __version__
 
@@ -46,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
             name,
             help=text,
             description=(module.__doc__ or text).replace("``", "").strip(),
+            epilog=f"example:\n  {EXAMPLES[name]}",
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
         module.add_arguments(p)

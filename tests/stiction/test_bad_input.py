@@ -22,7 +22,18 @@ def test_every_help_prints_and_exits_0(argv, capsys):
     with pytest.raises(SystemExit) as done:
         main([*argv, "--help"])
     assert done.value.code == 0
-    assert "usage: stiction" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "usage: stiction" in out
+    if len(argv) == 1:  # every command shows one line a user can copy
+        assert f"example:\n  stiction {argv[0]} " in out
+
+
+def test_version_prints_the_installed_version(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0 and capsys.readouterr().out.strip() == f"stiction {version('stiction')}"
 
 
 def _loop_csv(path, n=1500, pv=None, op=None, sep=",", decimal="."):
