@@ -49,6 +49,16 @@ def _mae(est: np.ndarray, truth: np.ndarray) -> float:
     return float(np.mean(np.abs(est[ok] - truth[ok]))) if ok.any() else float("nan")
 
 
+def _mae_misses_counted(est: np.ndarray, truth: np.ndarray) -> float:
+    """Every loop of these sets is sticky: a loop given no numbers counts as read at zero friction
+    (what a plant does with a valve not called sticky), so withholding is no way to a smaller error."""
+    return float(np.mean(np.abs(np.where(np.isfinite(est), est, 0.0) - truth)))
+
+
+def _called(reports) -> float:
+    return float(np.mean([r.verdict == "stiction" for r in reports]))
+
+
 def _nan(x: float | None) -> float:
     return np.nan if x is None else x
 
@@ -91,6 +101,8 @@ def bench_accuracy(
         c = np.array([[_nan(x.fs_pct), _nan(x.fd_pct)] for x in plain])
         results["b_no_flags"][set_name] = {
             "mae_pp": _mae(c, truth),
+            "mae_misses_counted_pp": _mae_misses_counted(c, truth),
+            "called_sticky": _called(plain),
             "s_per_loop": t_plain / n,
             "n": n,
             "identified": sum(x.process.source == "identified" for x in plain),
@@ -99,6 +111,8 @@ def bench_accuracy(
         results["a_thesis"][set_name] = {"mae_pp": _mae(a, truth), "s_per_loop": t_thesis / n, "n": n}
         results["b_pipeline"][set_name] = {
             "mae_pp": _mae(b, truth),
+            "mae_misses_counted_pp": _mae_misses_counted(b, truth),
+            "called_sticky": _called(reports),
             "s_per_loop": t_best / n,
             "n": n,
             "methods": methods_used,

@@ -284,6 +284,13 @@ def _accuracy(args) -> None:
         print(f"{label:55s}{cells}")
     n = {s: figures["methods"]["b_pipeline"][s]["n"] for s in sets}
     print(f"{'loops':55s}" + "".join(f"{n[s]:>22d}" for s in sets))
+    for key in ("b_pipeline", "b_no_flags"):  # every loop is sticky: a withheld number is a miss
+        row = figures["methods"][key]
+        cells = "".join(
+            f"{100 * row[s]['called_sticky']:>6.1f} % {row[s]['mae_misses_counted_pp']:>9.2f} pp" for s in sets
+        )
+        label = {"b_pipeline": "(b)", "b_no_flags": "(b) no flags"}[key] + " called sticky; MAE, misses as zero"
+        print(f"{label:55s}{cells}")
     print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
     found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
     cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)
