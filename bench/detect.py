@@ -1,18 +1,19 @@
-"""``stiction bench detect``: is it the valve?  The detector beside the published tests, side by side.
+"""``stiction bench detect``: is it the valve?  The verdict on loops it was not trained on, beside the
+published tests, in one run.
 
-Two sets, same run:
+- Simulated families (``sim.plant_families``: flow, level, slow, detuned), leave-one-family-out:
+  the detector trained on every family but one (seed ``SIM_SEED``) and judged on the one left out
+  (another seed), as a plant's loops of a kind it never saw.  Per family: sensitivity (windows that
+  show a valve fault, called stiction), specificity (the others, not called), balanced accuracy, and
+  the share the verdict cannot settle (probability from ``LEANS_AT`` to ``STICTION_AT``: counted
+  neither way in the accuracy, reported on its own).
+- Labelled measured windows (``loops.json`` beside the CSVs), leave-one-tag-out: each tag's windows
+  judged by a detector trained without them (on the simulated families and the other tags), and
+  by the detector trained on simulation alone.
 
-- simulated plant-like loops of every class (``sim.plant_loops``, a seed the shipped detector
-  was not trained on): the share of each class called stiction by each method;
-- the labelled measured windows (``loops.json`` beside the CSVs): accuracy against the data
-  authors' labels, the detector cross-validated by tag (each tag's windows judged by a
-  detector trained without any window of that tag).
-
-Methods: Horch's cross-correlation test (stiction where it reads an odd CCF), Choudhury's
-bicoherence test (nonlinear and oscillating), He et al.'s shape test (SI of OP > 0.6), and
-the project's verdict (data checks, then the detector's stiction probability >= ``STICTION_AT``), with
-its stuck-valve tests (OP ramps while PV stands still; a setpoint step PV followed only
-after OP had ramped, ``detect.verdict.StuckRule``) alone beside it.
+Methods: the project's verdict (data checks, then the stiction probability >= ``STICTION_AT``), its
+stuck-valve tests alone, Horch's cross-correlation test (stiction where it reads an odd CCF),
+Choudhury's bicoherence test (nonlinear and oscillating), and He et al.'s shape test (SI of OP > 0.6).
 """
 
 from __future__ import annotations
@@ -47,105 +48,131 @@ def _blocked(op, pv) -> bool:
     return bool(blocking(data_checks(op, pv)))
 
 
-def bench_detect(measured: list[Path], n_per_class: int = 40, seed: int = 2026, train_per_class: int = 60) -> dict:
+def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
+    """Sensitivity, specificity, balanced accuracy and accuracy of boolean calls against the truth."""
+    sens = float(np.mean(called[truth])) if truth.any() else float("nan")
+    spec = float(np.mean(~called[~truth])) if (~truth).any() else float("nan")
+    return {"sensitivity": sens, "specificity": spec, "balanced": float(np.nanmean([sens, spec])),
+            "accuracy": float(np.mean(called == truth))}  # fmt: skip
+
+
+def _family_set(n_per_cause: int, seed: int):
+    from detect.features import evidence
+    from sim.plant_families import family_loops, simulate_families, stable
+
+    loops = family_loops(n_per_cause, seed)
+    rows = []
+    for loop, rec in zip(loops, simulate_families(loops), strict=True):
+        if stable(rec):
+            rows.append((loop, rec, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), _blocked(rec.op, rec.pv)))
+    return rows
+
+
+def bench_detect(measured: list[Path], n_per_class: int = 20, seed: int = 2026, train_per_class: int = 20) -> dict:
+    """``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training."""
     from bench.measured import labelled_exports
     from detect import training
     from detect.features import evidence
-    from detect.verdict import STICTION_AT
-    from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
+    from detect.verdict import LEANS_AT, STICTION_AT
+    from sim.plant_families import FAMILIES
 
     t0 = time.perf_counter()
-    x_train, causes_train, stuck_train = training.simulated_set(train_per_class, SIM_SEED)
-    detector = training.train(x_train, causes_train, stuck=stuck_train)
-    out: dict = {"simulated": {}, "measured": {}}
+    x_train, classes_train, stuck_train, family_train = training.simulated_set(train_per_class, SIM_SEED)
+    out: dict = {"families": {}, "measured": {}}
 
-    loops = plant_loops(n_per_class, seed)
     t1 = time.perf_counter()
-    records = simulate_plant(loops)
-    kept = [i for i, r in enumerate(records) if stable(r[0], r[1])]
-    out["diverged"] = len(loops) - len(kept)
-    loops, records = [loops[i] for i in kept], [records[i] for i in kept]
-    evs = [evidence(op, pv, ts_s, sp) for op, pv, sp, ts_s in records]
-    feature_s = (time.perf_counter() - t1) / len(loops)
-    x_sim = np.nan_to_num(np.array([e.vector for e in evs]))
-    stuck_sim = np.array([e.stuck for e in evs])
-    p = detector.stiction_probability(x_sim, stuck_sim)
-    blocked = [_blocked(op, pv) for op, pv, _, _ in records]
-    by_class = {cls: [i for i, loop in enumerate(loops) if loop.cause == cls] for cls in CLASSES}
-    for cls, idx in by_class.items():
-        called = [_calls(evs[i], p[i], blocked[i]) for i in idx]
-        out["simulated"][cls] = {m: float(np.mean([c[m] for c in called])) for m in METHODS} | {"n": len(idx)}
-    out["simulated_seconds_per_loop"] = feature_s
+    rows = _family_set(n_per_class, seed)
+    out["seconds_per_window"] = (time.perf_counter() - t1) / max(len(rows), 1)
+    family = np.array([r[0].family for r in rows])
+    truth = np.array([r[1].shows_fault for r in rows])
+    x = np.nan_to_num(np.array([r[2].vector for r in rows]))
+    stuck = np.array([r[2].stuck for r in rows])
+    p = np.zeros(len(rows))
+    for f in FAMILIES:
+        keep = [i for i, g in enumerate(family_train) if g != f]
+        d = training.train(x_train[keep], [classes_train[i] for i in keep], stuck=stuck_train[keep])
+        held = family == f
+        p[held] = d.stiction_probability(x[held], stuck[held])
+    calls = [_calls(r[2], p[i], r[3]) for i, r in enumerate(rows)]
+    unsettled = (p >= LEANS_AT) & (p < STICTION_AT)
+    for f in FAMILIES:
+        held = family == f
+        row = {m: _rates(np.array([c[m] for c, h in zip(calls, held, strict=True) if h]), truth[held]) for m in METHODS}
+        settled = held & ~unsettled
+        row["ours_settled"] = _rates(p[settled] >= STICTION_AT, truth[settled])
+        row["cannot_tell"] = float(np.mean(unsettled[held]))
+        row["n"], row["show_fault"] = int(held.sum()), int(truth[held].sum())
+        out["families"][f] = row
+    out["by_cause"] = {
+        cause: {"n": int(sum(m)), "show_fault": float(np.mean(truth[m])), "called": float(np.mean(p[m] >= STICTION_AT))}
+        for cause in sorted({r[0].cause for r in rows})
+        for m in [np.array([r[0].cause == cause for r in rows])]
+    }
 
-    rows = [
+    measured_rows = [
         (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
         for tag, sticky, e in labelled_exports(measured)
     ]
-    if rows:
-        tags = [r[0] for r in rows]
-        xm = np.nan_to_num(np.array([r[2].vector for r in rows]))
-        stuck_m = np.array([r[2].stuck for r in rows])
-        sticky = [r[1] for r in rows]
-        p_cv = np.zeros(len(rows))
+    if measured_rows:
+        tags = [r[0] for r in measured_rows]
+        xm = np.nan_to_num(np.array([r[2].vector for r in measured_rows]))
+        stuck_m = np.array([r[2].stuck for r in measured_rows])
+        sticky = np.array([r[1] for r in measured_rows])
+        p_cv = np.zeros(len(measured_rows))
         for tag in sorted(set(tags)):
             keep = [i for i, t in enumerate(tags) if t != tag]
             held = [i for i, t in enumerate(tags) if t == tag]
-            d = training.train(x_train, causes_train, xm[keep], [sticky[i] for i in keep], [tags[i] for i in keep],
+            d = training.train(x_train, classes_train, xm[keep], list(sticky[keep]), [tags[i] for i in keep],
                                stuck=stuck_train)  # fmt: skip
             p_cv[held] = d.stiction_probability(xm[held], stuck_m[held])
-        calls = [_calls(r[2], p_cv[i], r[3]) for i, r in enumerate(rows)]
-        p_sim = detector.stiction_probability(xm, stuck_m)
-        calls_sim = [_calls(r[2], p_sim[i], r[3])["ours"] for i, r in enumerate(rows)]
-        truth = np.array(sticky)
+        simulation_only = training.train(x_train, classes_train, stuck=stuck_train)
+        p_sim = simulation_only.stiction_probability(xm, stuck_m)
+        calls = [_calls(r[2], p_cv[i], r[3]) for i, r in enumerate(measured_rows)]
+        calls_sim = np.array([_calls(r[2], p_sim[i], r[3])["ours"] for i, r in enumerate(measured_rows)])
+        readable = ~np.array([r[3] for r in measured_rows])
         out["measured"] = {
-            "windows": len(rows),
+            "windows": len(measured_rows),
             "tags": len(set(tags)),
-            "sticky": int(truth.sum()),
-            "bad_data": int(sum(r[3] for r in rows)),
-            "accuracy": {m: float(np.mean(np.array([c[m] for c in calls]) == truth)) for m in METHODS},
-            "recall": {m: float(np.mean(np.array([c[m] for c in calls])[truth])) for m in METHODS},
-            "specificity": {m: float(np.mean(~np.array([c[m] for c in calls])[~truth])) for m in METHODS},
-            "accuracy_simulation_only": float(np.mean(np.array(calls_sim) == truth)),
-        }
-        out["measured"]["near_threshold"] = int(np.sum(np.abs(p_cv - STICTION_AT) < 0.1))
-        shipped = training.train(x_train, causes_train, xm, sticky, tags, stuck=stuck_train)
-        p_shipped = shipped.stiction_probability(x_sim, stuck_sim)
-        out["simulated_as_shipped"] = {
-            cls: float(np.mean([_calls(evs[i], p_shipped[i], blocked[i])["ours"] for i in idx]))
-            for cls, idx in by_class.items()
-        }
-        readable = ~np.array([r[3] for r in rows])
-        out["measured"]["accuracy_readable"] = {
-            m: float(np.mean((np.array([c[m] for c in calls]) == truth)[readable])) for m in METHODS
+            "sticky": int(sticky.sum()),
+            "bad_data": int((~readable).sum()),
+            **{m: _rates(np.array([c[m] for c in calls]), sticky) for m in METHODS},
+            "ours_simulation_only": _rates(calls_sim, sticky),
+            "ours_readable": _rates(np.array([c["ours"] for c in calls])[readable], sticky[readable]),
+            "near_threshold": int(np.sum(np.abs(p_cv - STICTION_AT) < 0.1)),
+            "cannot_tell": float(np.mean((p_cv >= LEANS_AT) & (p_cv < STICTION_AT))),
         }
     out["seconds"] = time.perf_counter() - t0
     return out
 
 
 def print_table(fig: dict) -> None:
-    print("simulated plant-like loops: share called stiction (want 100 % for stiction, 0 % for the others)")
-    print(f"{'class':22s}" + "".join(f"{m:>13s}" for m in METHODS) + "      n")
-    for cls, row in fig["simulated"].items():
-        print(f"{cls:22s}" + "".join(f"{100 * row[m]:12.0f}%" for m in METHODS) + f"{row['n']:7d}")
-    others = [r for c, r in fig["simulated"].items() if c != "stiction"]
-    if others:
-        print(f"{'not called (others)':22s}" + "".join(
-            f"{100 * (1 - np.mean([r[m] for r in others])):12.0f}%" for m in METHODS))  # fmt: skip
-    shipped = fig.get("simulated_as_shipped")
-    if shipped:
-        rest = [v for c, v in shipped.items() if c != "stiction"]
-        print(f"ours as shipped (trained on the measured windows too): stiction {100 * shipped['stiction']:.0f} %, "
-              f"others not called {100 * (1 - np.mean(rest)):.0f} %")  # fmt: skip
-    print(f"evidence per window: {1000 * fig['simulated_seconds_per_loop']:.1f} ms")
+    from detect.verdict import LEANS_AT, STICTION_AT
+
+    print("simulated families, leave-one-family-out (trained on the others): sensitivity / specificity, "
+          "balanced accuracy")  # fmt: skip
+    print(f"{'family':10s}{'n':>5s}{'fault':>6s}" + "".join(f"{m:>19s}" for m in METHODS) + "   cannot tell")
+    for f, row in fig["families"].items():
+        cells = "".join(
+            f"{row[m]['sensitivity']:>7.2f}/{row[m]['specificity']:.2f} {row[m]['balanced']:.2f}" for m in METHODS
+        )
+        print(f"{f:10s}{row['n']:5d}{row['show_fault']:6d}{cells}{100 * row['cannot_tell']:>11.0f} %")
+    settled = {f: r["ours_settled"]["balanced"] for f, r in fig["families"].items()}
+    print(f"ours, the windows it settles (p below {LEANS_AT} or from {STICTION_AT}): balanced "
+          + ", ".join(f"{f} {v:.2f}" for f, v in settled.items()))  # fmt: skip
+    print("by cause (held out): " + "; ".join(
+        f"{c} {100 * r['called']:.0f} % called ({100 * r['show_fault']:.0f} % show a fault)"
+        for c, r in fig["by_cause"].items()))  # fmt: skip
+    print(f"evidence per window: {1000 * fig['seconds_per_window']:.1f} ms (with the simulation)")
     m = fig.get("measured")
     if m:
         print(f"measured windows ({m['windows']} in {m['tags']} tags, {m['sticky']} labelled sticky, "
-              f"{m['bad_data']} with blocking data problems), ours cross-validated by tag:")  # fmt: skip
-        for k in ("accuracy", "recall", "specificity"):
-            print(f"{k:22s}" + "".join(f"{100 * m[k][x]:12.0f}%" for x in METHODS))
-        print(f"{'accuracy, data readable':22s}" + "".join(f"{100 * m['accuracy_readable'][x]:12.0f}%" for x in METHODS)
-              + f"   ({m['windows'] - m['bad_data']} windows: a dead or frozen sensor shows no valve)")  # fmt: skip
-        print(f"ours trained on simulation only: accuracy {100 * m['accuracy_simulation_only']:.0f} %")
-        print(f"measured windows within 0.1 of the threshold, cross-validated: {m['near_threshold']}"
-              " (their calls may flip with small changes in training)")  # fmt: skip
+              f"{m['bad_data']} with blocking data problems), leave-one-tag-out:")  # fmt: skip
+        for k in ("accuracy", "sensitivity", "specificity"):
+            print(f"{k:22s}" + "".join(f"{m[x][k]:>12.2f}" for x in METHODS) + "   " + " ".join(METHODS))
+        alone = m["ours_simulation_only"]
+        print(f"ours trained on simulation alone: accuracy {alone['accuracy']:.2f}, sensitivity "
+              f"{alone['sensitivity']:.2f}, specificity {alone['specificity']:.2f}; on the "
+              f"{m['windows'] - m['bad_data']} readable windows {m['ours_readable']['accuracy']:.2f}")  # fmt: skip
+        print(f"measured windows within 0.1 of the threshold: {m['near_threshold']}; cannot tell "
+              f"{100 * m['cannot_tell']:.0f} %")  # fmt: skip
     print(f"{fig['seconds']:.0f} s")

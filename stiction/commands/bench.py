@@ -82,7 +82,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument(
         "measured", nargs="*", type=Path, metavar="DIR", help="labelled measured exports (a loops.json beside them)"
     )
-    t.add_argument("--loops", type=int, default=40, help="simulated plant-like loops per class")
+    t.add_argument("--loops", type=int, default=20, help="simulated loops per cause in each family")
     t.add_argument("--seed", type=int, default=2026)
     t.add_argument("--json", action="store_true")
     z = sub.add_parser("sizing", help="S and J on simulated plant-like sticky loops, as quantify reports them")

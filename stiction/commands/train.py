@@ -84,8 +84,8 @@ def train_detector(args: argparse.Namespace) -> int:
     from detect.features import evidence
 
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
-    n_per_class = 60
-    x, causes, stuck = training.simulated_set(n_per_class, args.seed + training.SIM_SEED)
+    n_per_cause = training.N_PER_CAUSE
+    x, causes, stuck, _ = training.simulated_set(n_per_cause, args.seed + training.SIM_SEED)
     mx, sticky, tags = [], [], []
     if args.measured is not None:
         if not args.measured.exists():
@@ -97,8 +97,9 @@ def train_detector(args: argparse.Namespace) -> int:
         if not mx:
             raise InputError(f"--measured {args.measured}: no labelled exports (a loops.json beside them)")
     trained_on = (
-        f"{n_per_class} simulated plant-like loops per class of sim.plant_loops (seed {args.seed + training.SIM_SEED})"
-        f" and {2 * n_per_class} canonical sticky loops (half noise-free)"
+        f"{n_per_cause} simulated loops per cause and family of sim.plant_families (seed "
+        f"{args.seed + training.SIM_SEED}), labelled by what each window shows, and "
+        f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free)"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
     detector = training.train(x, causes, np.array(mx) if mx else None, sticky, tags, trained_on, stuck)

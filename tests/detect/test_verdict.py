@@ -1,4 +1,4 @@
-"""The verdict on loops with a hidden cause: the shipped detector, loops of a seed it was not trained on."""
+"""The verdict on loops with a hidden cause: the shipped detector, family loops of a seed it was not trained on."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ from agent.predictor import DEFAULT_MODELS_DIR
 from detect.features import evidence
 from detect.training import DETECTOR_FILE, SIM_SEED
 from detect.verdict import STICTION_AT, Detector, decide, fit_logistic
-from sim.plant_loops import plant_loops, simulate_plant, stable
+from sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
 
 
 @pytest.fixture(scope="module")
@@ -17,29 +17,36 @@ def detector():
 
 @pytest.fixture(scope="module")
 def judged(detector):
-    loops = plant_loops(12, SIM_SEED + 1000)
+    """Verdicts by what each window shows: ``fault`` (a valve fault exercised in the window), the
+    look-alike cause given, or ``unexercised`` (a faulty valve the window never shows)."""
+    loops = family_loops(3, SIM_SEED + 1000)
     out = {}
-    for loop, (op, pv, sp, ts_s) in zip(loops, simulate_plant(loops), strict=True):
-        if not stable(op, pv):
+    for loop, rec in zip(loops, simulate_families(loops), strict=True):
+        if not stable(rec):
             continue
-        out.setdefault(loop.cause, []).append(decide(detector, evidence(op, pv, ts_s, sp), []))
+        key = "fault" if rec.shows_fault else (loop.cause if loop.cause in LOOK_ALIKES else "unexercised")
+        out.setdefault(key, []).append(decide(detector, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), []))
     return out
 
 
+def _look_alikes(judged):
+    return [v for cause, vs in judged.items() if cause not in ("fault", "unexercised") for v in vs]
+
+
 def test_look_alikes_are_rarely_called_stiction(judged):
-    others = [v for cause, vs in judged.items() if cause != "stiction" for v in vs]
+    others = _look_alikes(judged)
     called = sum(v.verdict == "stiction" for v in others)
-    assert called <= 0.1 * len(others)
+    assert called <= 0.15 * len(others)
 
 
-def test_sticky_plant_loops_are_called_sticky_more_often_than_not_given_the_probability(judged):
-    sticky = [v.stiction_probability for v in judged["stiction"]]
-    others = [v.stiction_probability for c, vs in judged.items() if c != "stiction" for v in vs]
-    assert np.median(sticky) > np.quantile(others, 0.9)
+def test_windows_that_show_a_valve_fault_are_called_sticky_more_often_than_not_given_the_probability(judged):
+    sticky = [v.stiction_probability for v in judged["fault"]]
+    assert sum(v.verdict == "stiction" for v in judged["fault"]) > 0.5 * len(sticky)
+    assert np.median(sticky) > np.quantile([v.stiction_probability for v in _look_alikes(judged)], 0.9)
 
 
 def test_an_external_load_oscillation_is_another_cause_not_stiction(judged):
-    verdicts = judged["external_oscillation"]
+    verdicts = judged["sine"] + judged["triangle"] + judged["square"]  # an upstream loop's cycle, filtered
     assert sum(v.verdict == "other_cause" for v in verdicts) >= 0.75 * len(verdicts)
     named = [v.likely_cause for v in verdicts if v.verdict == "other_cause"]
     assert "stiction" not in named and named.count("external_oscillation") >= 0.5 * len(named)

@@ -1,0 +1,263 @@
+"""Simulated plant loops in families, labelled by what each window shows: the detector's training
+and held-out sets (``detect.training``, ``stiction bench detect``).
+
+A family is a kind of plant loop: its process, its tuning and how its historian samples it.
+
+- ``flow``: self-regulating, time constant 1-10 s, dead time 0-2 s, recorded every 1-2 s;
+- ``level``: integrating, recorded every 1-10 s;
+- ``slow``: self-regulating, 20-200 s, dead time 2-30 s (temperatures, compositions), recorded
+  every 5-60 s;
+- ``detuned``: any of those processes under a controller 3-20 times slower than SIMC's
+  (gain 0.05-0.3 of it, integral time 3-20 times), as plants often run them.
+
+Every family gets every cause in equal numbers.  Valve faults, in the two-parameter sense
+(Choudhury, Thornhill & Shah 2005; Kano 2004: a band S = deadband + stickband, a slip J >= 0):
+``stick_slip`` (the physical valve), ``he`` (He et al. 2007's two-parameter valve),
+``backlash`` (a valve with backlash and no slip: S > 0, J = 0) and ``stick_backlash`` (both).
+Look-alikes: an external load that is a ``sine``, a first-order filtered ``triangle`` or
+``square`` (the cycle of an upstream loop's sticky valve) from 2 to 60 cycles a window;
+``tuning`` (a controller 1.5-2.5 times too aggressive for its dead time); ``quantization``
+(a stepped record); ``compression`` (a historian's swinging-door-like archive: a value stored
+when it moved by more than its deadband, linear between stored values); ``noise`` (a healthy loop
+wandering under coloured measurement noise and a slow load).  Operators move setpoints in half
+of the loops; a tenth of every cause's records are stepped and a fifth compressed, as historians
+store them, so that neither artefact tells a cause.
+
+A window is labelled by what it shows, not by the valve it was given: ``shows_fault`` where the
+stem stood still at least twice in the recorded window while OP travelled half the band or more,
+and then moved (a slip, or the end of the backlash's play).  A sticky valve the loop never
+exercises in the window is a healthy-looking window, and is labelled so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.disturbance import unit_shape
+from sim.extensions import Extensions
+from sim.loop import LoopSpec, build_batch, run_batch
+from sim.process import ProcessModel
+from sim.valve import band_and_jump_pct
+
+FAMILIES = ("flow", "level", "slow", "detuned")
+FAULTS = ("stick_slip", "he", "backlash", "stick_backlash")
+LOOK_ALIKES = ("sine", "triangle", "square", "tuning", "quantization", "compression", "noise")
+CAUSES = FAULTS + LOOK_ALIKES
+WINDOW_SAMPLES = 600
+FAULT_EVENTS = 2
+"""Stuck-then-moved events a window must show to be labelled a valve fault: a cycle's worth.  With
+one, detuned loops whose valve slipped once in the window were labelled sticky and the detector
+trained on them called a third of the detuned family's look-alikes sticky (held out: specificity
+0.63 against 0.85 with two)."""
+FAULT_TRAVEL_SHARE = 0.5
+"""OP travel over a stuck stretch, as a share of S, that counts as exercising the band."""
+
+
+@dataclass(frozen=True)
+class FamilyLoop:
+    spec: LoopSpec
+    family: str
+    cause: str
+    every: int
+    """Controller periods (1 s) per recorded sample."""
+    s_pct: float
+    j_pct: float
+    noise_pct: float
+    noise_ar: float
+    """AR(1) coefficient of the measurement noise (0 white, towards 1 coloured)."""
+    load_pct: float
+    load_shape: str | None = None
+    load_period_s: float = 0.0
+    load_filter_s: float = 0.0
+    quantum_pct: float = 0.0
+    compression_pct: float = 0.0
+    sp_steps: tuple[tuple[float, float], ...] = ()
+
+    @property
+    def fault(self) -> bool:
+        return self.cause in FAULTS
+
+
+@dataclass(frozen=True)
+class FamilyRecord:
+    """One loop's window as its historian holds it, and what the window shows."""
+
+    op: np.ndarray
+    pv: np.ndarray
+    sp: np.ndarray
+    ts_s: float
+    shows_fault: bool
+    stuck_events: int
+
+
+def _process(rng: np.random.Generator, family: str, aggressive: float | None) -> tuple[ProcessModel, float, int]:
+    """(process and PI, dead time [s], controller periods per recorded sample) of one family's loop."""
+    kind = family if family != "detuned" else str(rng.choice(["flow", "level", "slow"]))
+    if kind == "flow":
+        tau, dead, every = float(rng.uniform(1.0, 10.0)), float(rng.uniform(0.0, 2.0)), int(rng.choice([1, 2]))
+    elif kind == "slow":
+        tau, dead, every = float(np.exp(rng.uniform(np.log(20), np.log(200)))), float(rng.uniform(2.0, 30.0)), int(
+            rng.choice([5, 10, 30, 60])
+        )
+    else:
+        tau, dead, every = None, float(rng.uniform(0.0, 8.0)), int(rng.choice([1, 2, 5, 10]))
+    closed_s = max(dead, float(rng.uniform(0.5, 2.0)) * (tau if tau else 10.0))
+    if family == "detuned":
+        gain_share, ti_times = float(rng.uniform(0.05, 0.3)), float(rng.uniform(3.0, 20.0))
+    else:
+        gain_share, ti_times = float(rng.uniform(0.5, 1.0)), float(rng.uniform(1.0, 3.0))
+    if aggressive is not None:
+        gain_share, ti_times = aggressive, 1.0
+        dead = max(dead, 3.0 if kind != "slow" else 10.0)
+        closed_s = dead
+    if tau is None:
+        gain = float(np.exp(rng.uniform(np.log(0.005), np.log(0.1))))
+        kc = 1.0 / (gain * (closed_s + dead))
+        ti = 4.0 * (closed_s + dead)
+        model = ProcessModel(gain=gain, time_constant_s=None, controller_gain=kc * gain_share,
+                             integral_time_s=ti * ti_times)  # fmt: skip
+    else:
+        gain = float(np.exp(rng.uniform(np.log(0.5), np.log(2.0))))
+        kc = tau / (gain * (closed_s + dead))
+        ti = min(tau, 4.0 * (closed_s + dead))
+        model = ProcessModel(gain=gain, time_constant_s=tau, controller_gain=kc * gain_share,
+                             integral_time_s=ti * ti_times)  # fmt: skip
+    return model, dead, every
+
+
+def family_loops(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMILIES) -> list[FamilyLoop]:
+    """``n_per_cause`` loops of every cause in every family, magnitudes drawn at random."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for family in families:
+        for cause in CAUSES:
+            for _ in range(n_per_cause):
+                aggressive = float(rng.uniform(1.5, 2.5)) if cause == "tuning" else None
+                model, dead, every = _process(rng, family, aggressive)
+                fs = float(rng.uniform(6.0, 60.0)) if cause in ("stick_slip", "he", "stick_backlash") else 0.0
+                fd = fs * (1 - float(rng.uniform(0.1, 0.9)))
+                backlash = float(rng.uniform(0.5, 5.0)) if cause in ("backlash", "stick_backlash") else 0.0
+                params: dict = {"dead_time_s": dead, "deadband_pct": backlash}
+                valve = "he" if cause == "he" else "physical"
+                spec = LoopSpec(fs, fd, valve=valve, process=model, extensions=Extensions(**params),
+                                seed=int(rng.integers(2**31)), sp_pct=50.0)  # fmt: skip
+                s_pct, j_pct = (float(v) for v in band_and_jump_pct(fs, fd))
+                window_s = WINDOW_SAMPLES * every
+                shape = cause if cause in ("sine", "triangle", "square") else None
+                period = window_s / float(np.exp(rng.uniform(np.log(2.0), np.log(60.0)))) if shape else 0.0
+                period = max(period, 4.0 * every)  # a cycle the record can show
+                load_pct = float(rng.uniform(1.0, 5.0)) if shape else float(rng.uniform(0.0, 0.5))
+                if cause == "noise":
+                    load_pct = float(rng.uniform(0.5, 3.0))
+                steps = int(rng.integers(1, 4)) if rng.random() < 0.5 else 0
+                artefact = float(rng.random())  # the historian's: a stepped or compressed record, on any loop
+                sp_steps = tuple((float(rng.uniform(0.05, 0.95)), float(rng.choice([-1, 1]) * rng.uniform(1.0, 5.0)))
+                                 for _ in range(steps))  # fmt: skip
+                out.append(
+                    FamilyLoop(
+                        spec, family, cause, every, s_pct + backlash, j_pct,
+                        noise_pct=float(rng.uniform(0.02, 0.3)),
+                        noise_ar=float(rng.choice([0.0, rng.uniform(0.5, 0.95)])),
+                        load_pct=load_pct, load_shape=shape, load_period_s=period,
+                        load_filter_s=float(rng.uniform(0.05, 0.25)) * period if shape in ("triangle", "square") else 0,
+                        quantum_pct=float(rng.uniform(0.2, 1.0)) if cause == "quantization" or artefact < 0.1 else 0.0,
+                        compression_pct=float(rng.uniform(0.1, 1.0))
+                        if cause == "compression" or 0.1 <= artefact < 0.3 else 0.0,
+                        sp_steps=sp_steps,
+                    )
+                )  # fmt: skip
+    return out
+
+
+def _load(loop: FamilyLoop, t_s: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The load on the process input: the family's external cycle, or a slow brown wander."""
+    if loop.load_shape is None:
+        return loop.load_pct * unit_shape("brownian", t_s.size, 1.0, rng)
+    phase = (t_s / loop.load_period_s + rng.random()) % 1.0
+    wave = {
+        "sine": np.sin(2 * np.pi * phase),
+        "triangle": 4 * np.abs(phase - 0.5) - 1,
+        "square": np.where(phase < 0.5, 1.0, -1.0),
+    }[loop.load_shape]
+    if loop.load_filter_s > 0:  # first order, the upstream process's lag
+        a = np.exp(-1.0 / loop.load_filter_s)
+        from scipy.signal import lfilter
+
+        wave = lfilter([1 - a], [1, -a], wave)
+    return loop.load_pct * wave / max(np.max(np.abs(wave)), 1e-9)
+
+
+def _noise(loop: FamilyLoop, n: int, rng: np.random.Generator) -> np.ndarray:
+    from scipy.signal import lfilter
+
+    white = rng.standard_normal(n)
+    coloured = lfilter([np.sqrt(1 - loop.noise_ar**2)], [1, -loop.noise_ar], white)
+    return loop.noise_pct * coloured
+
+
+def compress(x: np.ndarray, deadband: float) -> np.ndarray:
+    """A historian's archive of ``x``: a value stored when it moved more than ``deadband`` from the
+    last stored one, linear between stored values (the last sample always stored)."""
+    kept = [0]
+    for k in range(1, x.size):
+        if abs(x[k] - x[kept[-1]]) > deadband:
+            kept.append(k)
+    if kept[-1] != x.size - 1:
+        kept.append(x.size - 1)
+    return np.interp(np.arange(x.size), kept, x[kept])
+
+
+def stuck_events(op: np.ndarray, mv: np.ndarray, s_pct: float) -> int:
+    """Stretches in which the stem stood still while OP travelled ``FAULT_TRAVEL_SHARE`` of the band
+    or more, and that ended with the stem moving: the valve's nonlinearity exercised."""
+    if s_pct <= 0:
+        return 0
+    moving = np.abs(np.diff(mv)) > 1e-9
+    events, start = 0, 0
+    for k in np.flatnonzero(moving):
+        if np.ptp(op[start : k + 1]) >= FAULT_TRAVEL_SHARE * s_pct:
+            events += 1
+        start = k + 1
+    return events
+
+
+def simulate_families(loops: list[FamilyLoop], warmup_windows: float = 1.0) -> list[FamilyRecord]:
+    """Each loop's recorded window (``WINDOW_SAMPLES`` samples after a warm-up) and its label."""
+    out: list = [None] * len(loops)
+    by_every: dict[int, list[int]] = {}
+    for i, loop in enumerate(loops):
+        by_every.setdefault(loop.every, []).append(i)
+    for every, idx in by_every.items():
+        n = int(WINDOW_SAMPLES * every * (1 + warmup_windows))
+        t_s = np.arange(n, dtype=float)
+        start = n - WINDOW_SAMPLES * every
+        w, z, moves = (np.zeros((len(idx), n)) for _ in range(3))
+        for row, i in enumerate(idx):
+            rng = np.random.default_rng(loops[i].spec.seed)
+            w[row] = _load(loops[i], t_s, rng)
+            z[row] = _noise(loops[i], n, rng)
+            for share, step_pct in loops[i].sp_steps:
+                moves[row, start + int(share * WINDOW_SAMPLES * every) :] += step_pct
+        op, pv, mv = run_batch(build_batch([loops[i].spec for i in idx]), w, z - moves)
+        pv = pv + moves
+        keep = slice(start + every - 1, n, every)
+        for row, i in enumerate(idx):
+            loop = loops[i]
+            o, p = op[row, keep], pv[row, keep]
+            q = loop.quantum_pct
+            if q > 0:
+                o, p = np.round(o / q) * q, np.round(p / q) * q
+            if loop.compression_pct > 0:
+                o, p = compress(o, loop.compression_pct), compress(p, loop.compression_pct)
+            events = stuck_events(op[row, start:], mv[row, start:], loop.s_pct) if loop.fault else 0
+            sp = loop.spec.sp_pct + moves[row, keep]
+            out[i] = FamilyRecord(o, p, sp, float(every), events >= FAULT_EVENTS, events)
+    return out
+
+
+def stable(record: FamilyRecord) -> bool:
+    """Whether a generated loop stayed within the span's reach (an unstable tuning diverges)."""
+    op, pv = record.op, record.pv
+    return bool(np.all(np.isfinite(op)) and np.all(np.isfinite(pv)) and np.ptp(pv) < 100 and np.ptp(op) < 1000)
