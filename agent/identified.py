@@ -18,6 +18,7 @@ import numpy as np
 
 from ident.sizing import Sizing
 from schemas.report import ProcessInfo, StictionReport
+from sim.valve import fault_kind
 
 NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
 NOT_READ_WARNING = (
@@ -73,6 +74,7 @@ def with_sizing(report: StictionReport, sizing: Sizing, t_end_s: float | None, n
         "method": "identified",
         "s_pct": _opt(sizing.s_pct), "j_pct": _opt(sizing.j_pct),
         "s_se_pct": _opt(sizing.s_se_pct), "j_se_pct": _opt(sizing.j_se_pct),
+        "stiction_kind": fault_kind(_opt(sizing.s_pct), _opt(sizing.j_pct), _opt(sizing.j_se_pct)),
         "fs_pct": _opt(fs), "fd_pct": _opt(fd), "fs_se_pct": _opt(fs_se), "fd_se_pct": _opt(fd_se),
         "estimate_t_end_s": t_end_s,
         "warnings": warnings + ([note] if note else []),

@@ -43,7 +43,7 @@ from ident.checks import blocking, data_checks, impossible_friction
 from schemas.report import Estimate, ProcessInfo, StictionReport
 from sim.loop import TS_S
 from sim.process import LOOPS
-from sim.valve import band_and_jump_pct, band_and_jump_se_pct
+from sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
 
 PHYSICAL_MAX_SE_PCT = 0.25
 SEGMENTED_MAX_SE_PCT = 0.5
@@ -60,8 +60,8 @@ class Result(NamedTuple):
 
 
 READING_FIELDS = (
-    "fs_pct", "fd_pct", "s_pct", "j_pct", "s_se_pct", "j_se_pct", "fs_se_pct", "fd_se_pct", "denoised",
-    "method", "thesis", "physical", "learned", "ood_score", "explained", "estimate_t_end_s",
+    "fs_pct", "fd_pct", "s_pct", "j_pct", "s_se_pct", "j_se_pct", "stiction_kind", "fs_se_pct", "fd_se_pct",
+    "denoised", "method", "thesis", "physical", "learned", "ood_score", "explained", "estimate_t_end_s",
 )  # fmt: skip
 
 
@@ -267,6 +267,7 @@ class Quantifier:
             j_pct=j_pct,
             s_se_pct=s_se,
             j_se_pct=j_se,
+            stiction_kind=fault_kind(s_pct, j_pct, j_se),
             fs_se_pct=fs_se,
             fd_se_pct=fd_se,
             period_s=_opt(period),

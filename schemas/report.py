@@ -12,7 +12,8 @@ REPORT_SCHEMA_VERSION = 3
 """The report's version: 2 adds the verdict, the stiction probability, the likely cause, the process and
 the data checks, and nulls every friction number unless the verdict is ``stiction``; 3 makes ``s_pct``
 Choudhury's band (deadband + stickband, the OP travel after a reversal before the stem moves: (fs + fd)/12
-where it was fs/12) (docs/reports.md, migration)."""
+where it was fs/12), adds ``stiction_kind``, and counts a valve's deadband as stiction, not as an other
+cause (docs/reports.md, migration)."""
 
 Verdict = Literal["stiction", "other_cause", "no_oscillation", "bad_data"]
 
@@ -60,7 +61,7 @@ class StictionReport(BaseModel):
     )
     likely_cause: str | None = Field(
         description="stiction, or for other_cause the look-alike it resembles most (external_oscillation, "
-        "tuning, deadband, quantization)"
+        "tuning, quantization, noise); a valve's deadband is stiction (stiction_kind), not another cause"
     )
     regularity: float | None = Field(
         description="regularity of the oscillation's zero crossings (Thornhill 2003): > 1.5 a regular oscillation"
@@ -81,6 +82,11 @@ class StictionReport(BaseModel):
     )
     j_pct: float | None = Field(
         description="slip jump J in percent of span: how far the stem jumps when it breaks away; (fs - fd)/12"
+    )
+    stiction_kind: Literal["stick_slip", "deadband"] | None = Field(
+        None,
+        description="the kind of valve fault where the data tell: stick_slip (J surely above zero) or deadband "
+        "(backlash without a slip: J surely below a quarter of S); null where they cannot tell or S is not read",
     )
     s_se_pct: float | None = Field(description="uncertainty (one standard error) of s_pct")
     j_se_pct: float | None = Field(description="uncertainty (one standard error) of j_pct")

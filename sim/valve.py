@@ -110,6 +110,23 @@ def friction_se_pct(s_se_pct, j_se_pct, valve: ValveConstants = VALVE):
     return se, se
 
 
+SLIP_SHARE = 0.25
+"""A valve whose slip J is surely below this share of its band S reads as deadband/backlash."""
+
+
+def fault_kind(s_pct, j_pct, j_se_pct) -> str | None:
+    """What kind of valve fault a band S and slip J (% of span, J's standard error) describe, where the
+    data tell: ``stick_slip`` (a slip surely above zero: J - 2 se > 0), ``deadband`` (backlash without
+    a slip worth the name: J + 2 se below ``SLIP_SHARE`` of S), or None."""
+    if s_pct is None or j_pct is None or j_se_pct is None or not s_pct > 0:
+        return None
+    if j_pct - 2 * j_se_pct > 0:
+        return "stick_slip"
+    if j_pct + 2 * j_se_pct < SLIP_SHARE * s_pct:
+        return "deadband"
+    return None
+
+
 _TABLE_GAP_LBF = np.concatenate([[0.0], np.geomspace(1e-3, 2e3, 160)])
 
 

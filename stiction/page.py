@@ -73,8 +73,13 @@ def next_steps(r: StictionReport) -> list[str]:
                 "The band was not read from this record (the warnings say why): a valve travel test measures it "
                 "(small OP steps in manual, reversing direction; the OP travel before the stem moves is S)."
             )
+        kind = {
+            "stick_slip": " The stem sticks and then jumps (stick-slip): packing friction is the usual cause.",
+            "deadband": " The stem does not jump: deadband or backlash (worn linkage, positioner) more than friction.",
+        }.get(r.stiction_kind or "", "")
         return [
-            "Plan valve maintenance: the valve's own friction drives this loop (packing, stem, seat or positioner).",
+            "Plan valve maintenance: the valve's own nonlinearity drives this loop (packing, stem, seat or "
+            "positioner)." + kind,
             band,
             "A stiction compensator (a knocker) or a slower controller (less gain, more integral time) only "
             "shrinks the cycle: a stopgap until the valve is repaired.",
@@ -91,10 +96,6 @@ def next_steps(r: StictionReport) -> list[str]:
                 "Check the controller's tuning: too much gain or too little integral time makes a loop cycle.",
                 "To confirm, a small setpoint step shows overshoot and slow decay; a valve travel test shows the "
                 "valve healthy.",
-            ],
-            "deadband": [
-                "The valve may have deadband or backlash: a valve travel test (small OP steps, reversing) shows "
-                "how far OP moves before the stem follows.",
             ],
             "quantization": [
                 "PV or OP is stored in coarse steps (the historian's compression or the transmitter's "
@@ -138,6 +139,7 @@ def _rows(entries: list[LoopEntry]) -> list[dict]:
                 "source": e.source,
                 "r": r,
                 "verdict": r.verdict.replace("_", " "),
+                "kind": (r.stiction_kind or "").replace("_", "-"),
                 "cause": (r.likely_cause or "").replace("_", " ") if r.verdict == "other_cause" else "",
                 "p": r.stiction_probability,
                 "s": _pm(r.s_pct, r.s_se_pct),

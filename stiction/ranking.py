@@ -15,7 +15,7 @@ from schemas.report import StictionReport
 
 ORDER = {"stiction": 0, "other_cause": 1, "no_oscillation": 2, "bad_data": 3}
 COLUMNS = ("rank", "loop", "verdict", "stiction_probability", "s_pct", "s_se_pct", "j_pct", "j_se_pct",
-           "likely_cause", "amplitude_pct", "period_s", "warnings", "file")  # fmt: skip
+           "stiction_kind", "likely_cause", "amplitude_pct", "period_s", "warnings", "file")  # fmt: skip
 
 
 def rank_key(item: tuple[str, StictionReport]):
@@ -30,7 +30,8 @@ def ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
     for k, (path, r) in enumerate(sorted(reports, key=rank_key), start=1):
         rows.append({"rank": k, "loop": r.loop_id, "verdict": r.verdict,
                      "stiction_probability": r.stiction_probability, "s_pct": r.s_pct, "s_se_pct": r.s_se_pct,
-                     "j_pct": r.j_pct, "j_se_pct": r.j_se_pct, "likely_cause": r.likely_cause,
+                     "j_pct": r.j_pct, "j_se_pct": r.j_se_pct, "stiction_kind": r.stiction_kind,
+                     "likely_cause": r.likely_cause,
                      "amplitude_pct": r.amplitude_pct, "period_s": r.period_s, "warnings": len(r.warnings),
                      "file": path})  # fmt: skip
     return rows

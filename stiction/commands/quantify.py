@@ -69,6 +69,7 @@ def _summary(path: str, r) -> str:
     se = f" +- {f(r.fs_se_pct, 2)}/{f(r.fd_se_pct, 2)}" if r.fs_se_pct is not None else ""
     p = "" if r.stiction_probability is None else f" (stiction probability {r.stiction_probability:.2f})"
     cause = f", likely {r.likely_cause.replace('_', ' ')}" if r.verdict == "other_cause" and r.likely_cause else ""
+    cause += f" ({r.stiction_kind.replace('_', '-')})" if r.stiction_kind else ""
     lines = [
         f"{path}",
         f"  verdict {r.verdict.replace('_', ' ')}{cause}{p}",

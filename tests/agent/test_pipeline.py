@@ -363,3 +363,20 @@ def test_every_method_reads_the_band_a_travel_test_measures(quantifier):
     s_true = float(band_and_jump_pct(specs[0].fs_pct, specs[0].fd_pct)[0])
     assert identified.read and abs(identified.s_pct - s_true) <= 2 * identified.s_se_pct
     assert abs(identified.s_pct - s_true) < 0.05 * s_true  # an estimate, not just an interval
+
+
+def test_backlash_is_a_valve_fault_and_the_report_tells_deadband_from_stick_slip(quantifier):
+    """A valve with backlash and no slip is stiction in the two-parameter sense (S > 0, J = 0); a slip
+    on top of it is read as the same band plus the slip's (Choudhury: S = deadband + stickband)."""
+    from sim.extensions import Extensions
+    from sim.valve import band_and_jump_pct
+
+    specs = [LoopSpec(0.0, 0.0, seed=1, extensions=Extensions(deadband_pct=5.0)),
+             LoopSpec(1.0, 0.5, seed=1, extensions=Extensions(deadband_pct=5.0))]  # fmt: skip
+    r = simulate(specs).kept()
+    backlash, both = quantifier.quantify(_windows({"backlash": specs[0], "both": specs[1]}, r))
+    assert backlash.verdict == "stiction" and backlash.stiction_kind == "deadband"
+    assert backlash.j_pct + 2 * backlash.j_se_pct < 0.25 * backlash.s_pct
+    s_true, j_true = (float(v) for v in band_and_jump_pct(1.0, 0.5))
+    assert both.verdict == "stiction" and both.stiction_kind == "stick_slip"
+    assert both.s_pct == pytest.approx(5.0 + s_true, rel=0.02) and both.j_pct == pytest.approx(j_true, rel=0.1)

@@ -8,6 +8,7 @@ from sim.valve import (
     VALVE,
     Friction,
     band_and_jump_pct,
+    fault_kind,
     friction_pct,
     lagged_valve_step,
     pct_to_lbf,
@@ -171,3 +172,10 @@ def test_lagged_drive_matches_fine_substepping():
     # the stair after the first slip is integrated as its mean line: within half a step on average
     mean_fast = slip.mv_pct - slip.deficit_pct_s
     assert np.all(np.abs(mean_fast - mean_ref)[clear] <= 0.5 * step[clear] + 0.01)
+
+
+def test_the_kind_of_fault_is_named_only_where_j_and_its_error_tell():
+    assert fault_kind(4.0, 1.0, 0.2) == "stick_slip"  # J surely above zero
+    assert fault_kind(4.0, 0.1, 0.3) == "deadband"  # J surely below a quarter of S
+    assert fault_kind(4.0, 0.5, 0.5) is None  # could be either
+    assert fault_kind(None, 0.5, 0.1) is None and fault_kind(4.0, 0.5, None) is None and fault_kind(0.0, 0, 0) is None
