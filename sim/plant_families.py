@@ -38,6 +38,7 @@ import numpy as np
 from sim.disturbance import unit_shape
 from sim.extensions import Extensions
 from sim.loop import LoopSpec, build_batch, run_batch
+from sim.plant_loops import by_sample_interval
 from sim.process import ProcessModel
 from sim.valve import band_and_jump_pct
 
@@ -226,10 +227,7 @@ def stuck_events(op: np.ndarray, mv: np.ndarray, s_pct: float) -> int:
 def simulate_families(loops: list[FamilyLoop], warmup_windows: float = 1.0) -> list[FamilyRecord]:
     """Each loop's recorded window (``WINDOW_SAMPLES`` samples after a warm-up) and its label."""
     out: list = [None] * len(loops)
-    by_every: dict[int, list[int]] = {}
-    for i, loop in enumerate(loops):
-        by_every.setdefault(loop.every, []).append(i)
-    for every, idx in by_every.items():
+    for every, idx in by_sample_interval(loops).items():
         n = int(WINDOW_SAMPLES * every * (1 + warmup_windows))
         t_s = np.arange(n, dtype=float)
         start = n - WINDOW_SAMPLES * every

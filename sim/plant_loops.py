@@ -118,6 +118,15 @@ def plant_loops(n_per_class: int, seed: int) -> list[PlantLoop]:
     return out
 
 
+def by_sample_interval(loops) -> dict[int, list[int]]:
+    """Indices of ``loops`` grouped by their controller periods per recorded sample (``every``): each
+    group is simulated as one batch of the same length."""
+    groups: dict[int, list[int]] = {}
+    for i, loop in enumerate(loops):
+        groups.setdefault(loop.every, []).append(i)
+    return groups
+
+
 def simulate_plant(
     loops: list[PlantLoop], warmup_windows: float = 1.0, samples: int = WINDOW_SAMPLES
 ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, float]]:
@@ -128,10 +137,7 @@ def simulate_plant(
     A setpoint move of ``d`` enters as an output offset of ``-d`` that the record does not show: the
     controller sees the same error either way."""
     out: list = [None] * len(loops)
-    by_every: dict[int, list[int]] = {}
-    for i, loop in enumerate(loops):
-        by_every.setdefault(loop.every, []).append(i)
-    for every, idx in by_every.items():
+    for every, idx in by_sample_interval(loops).items():
         n = int(samples * every * (1 + warmup_windows))
         t_s = np.arange(n, dtype=float)
         specs = [loops[i].spec for i in idx]
