@@ -1,8 +1,12 @@
 """The agent's pure core: messages in, windows due for a report out; no Zenoh, no clock of its own.
 
-Ownership: each loop belongs to the live agent that ranks first for it by
-rendezvous hashing; the agent ranking second keeps the loop's window too, so
-that it reports at once when the owner's liveliness token disappears.
+Ownership: each loop's shard (``keys.shard_of``) belongs to the live agent that ranks first
+for it by rendezvous hashing.  A loop published on the spec's key ``{prefix}/loop/{id}/samples``
+reaches every agent, and the agent ranking second keeps its window too, so that it reports at
+once when the owner's liveliness token disappears.  A loop published on its shard's key reaches
+only the agents subscribed to that shard, its owner: an agent that inherits the shard rebuilds
+the loop's window from the publisher's history (``ingest(..., history=True)``) and keeps the
+dead owner's report schedule from the reports it has seen.
 """
 
 from __future__ import annotations
@@ -81,6 +85,8 @@ class _Loop:
     """End of the latest window of this loop reported by any agent (seen on the key space)."""
     queued: bool = False
     """In the core's queue of due loops: ``due`` looks at these only, not at every loop held."""
+    sharded: bool = False
+    """Its samples come on its shard's key: only the shard's owner holds it."""
 
     def interpolated(self) -> int:
         """Interpolated samples inside the window now (older gaps are forgotten)."""
@@ -106,23 +112,40 @@ class AgentCore:
         self._queue: list[str] = []  # loops due for a report (owned or not), oldest first
         self.latencies: list[float] = []
         self.agents: tuple[str, ...] = (self.agent_id,)
-        self._roles: dict[str, int] = {}  # loop -> its rank among live agents, cached per membership
+        self._roles: dict[int, int] = {}  # shard -> this agent's rank among live agents, cached per membership
+        self.reported_to_s: dict[str, float] = {}
+        """End of the latest window of every loop reported by any agent (seen on the key space): an agent
+        that inherits a shard keeps its loops' report schedule."""
+        self.history_merged = 0
 
     # ownership -------------------------------------------------------------------------------
-    def set_agents(self, alive: set[str]) -> None:
+    def set_agents(self, alive: set[str]) -> bool:
+        """The live agents; True if they changed.  Sharded loops of shards this agent no longer owns
+        are dropped (their samples stop coming; their new owner holds them)."""
         agents = tuple(sorted(alive | {self.agent_id}))
-        if agents != self.agents:
-            log.info("agents alive: %s", ", ".join(agents))
-            self.agents = agents
-            self._roles.clear()
+        if agents == self.agents:
+            return False
+        log.info("agents alive: %s", ", ".join(agents))
+        self.agents = agents
+        self._roles.clear()
+        for loop_id in [lid for lid, st in self.loops.items() if st.sharded and not self.owns(lid)]:
+            del self.loops[loop_id]
+        return True
+
+    def shard_role(self, shard: int) -> int:
+        """0 if this agent owns the shard, 1 if it ranks second, ... among the live agents."""
+        r = self._roles.get(shard)
+        if r is None:
+            order = sorted(self.agents, key=lambda a: rank(a, f"shard/{shard}"), reverse=True)
+            r = self._roles[shard] = order.index(self.agent_id)
+        return r
+
+    def owned_shards(self) -> set[int]:
+        return {k for k in range(keys.SHARDS) if self.shard_role(k) == 0}
 
     def role(self, loop_id: str) -> int:
-        """0 if this agent owns the loop, 1 if it ranks second, ... among the live agents."""
-        r = self._roles.get(loop_id)
-        if r is None:
-            order = sorted(self.agents, key=lambda a: rank(a, loop_id), reverse=True)
-            r = self._roles[loop_id] = order.index(self.agent_id)
-        return r
+        """0 if this agent owns the loop (its shard), 1 if it ranks second, ... among the live agents."""
+        return self.shard_role(keys.shard_of(loop_id))
 
     def owns(self, loop_id: str) -> bool:
         return self.role(loop_id) == 0
@@ -132,12 +155,17 @@ class AgentCore:
         self.rejected[reason] += 1
         log.debug("rejected (%s) %s", reason, detail)
 
-    def ingest(self, key: str, payload: bytes, encoding: str, now_s: float) -> None:
-        """One message from ``{prefix}/loop/{id}/samples``; anything wrong is counted, never raised."""
+    def ingest(self, key: str, payload: bytes, encoding: str, now_s: float, history: bool = False) -> None:
+        """One message from ``{prefix}/loop/{id}/samples`` (or its shard's key); anything wrong is
+        counted, never raised.  ``history``: a publisher's reply with a loop's recent samples, which
+        go in front of what the window holds."""
         loop_id = keys.loop_id_of(self.settings.prefix, key)
         if loop_id is None:
             return self.reject("bad_key", key)
-        if self.role(loop_id) >= self.settings.replicas:
+        sharded = keys.is_sharded(key)
+        if sharded and key.rsplit("/", 1)[1] != str(keys.shard_of(loop_id)):
+            return self.reject("wrong_shard", key)
+        if self.role(loop_id) >= (1 if sharded else self.settings.replicas):
             return None  # another agent's loop, and not one this agent would inherit
         if len(payload) > self.settings.max_payload_bytes:
             return self.reject("oversized_payload", f"{key}: {len(payload)} bytes")
@@ -155,6 +183,10 @@ class AgentCore:
                 return self.reject("too_many_loops", loop_id)
             state = self.loops[loop_id] = _Loop(RollingWindow(self.settings.window_samples, batch.ts_s), batch.process)
             state.first_at = self._first_at(loop_id)
+            state.reported_to_s = self.reported_to_s.get(loop_id, -math.inf)
+        state.sharded = sharded
+        if history:
+            return self._merge_history(loop_id, state, batch, now_s)
         w = state.window
         if w.next_seq is not None:
             if batch.ts_s != w.ts_s:
@@ -175,6 +207,33 @@ class AgentCore:
         state.new_since_report += len(batch.op)
         state.arrived_at = now_s
         self.samples += len(batch.op)
+        if not state.queued and self._is_due(state):
+            state.queued = True
+            self._queue.append(loop_id)
+        return None
+
+    def _merge_history(self, loop_id: str, state: _Loop, batch: SampleBatch, now_s: float) -> None:
+        """A loop's recent samples from its publisher (an inherited shard): the window becomes the
+        history, then what had already come live; its schedule resumes from the last report seen."""
+        w = state.window
+        end = batch.seq + len(batch.op)
+        if w.next_seq is not None and (batch.ts_s != w.ts_s or end < w.next_seq - w.count):
+            return self.reject("history_gap", f"{loop_id}: history ends at {end}, window starts later")
+        if w.next_seq is not None and batch.seq >= w.next_seq - w.count:
+            return None  # nothing older than what the window holds
+        merged = RollingWindow(self.settings.window_samples, batch.ts_s)
+        start = end if w.next_seq is None else w.next_seq - w.count
+        n = start - batch.seq
+        merged.update(batch.seq, batch.t0_s, batch.op[:n], batch.pv[:n], None if batch.sp is None else batch.sp[:n])
+        if w.next_seq is not None:
+            op, pv = w.get()
+            merged.update(start, w.t_end_s - (w.count - 1) * w.ts_s, op, pv, w.get_sp())
+        state.window = merged
+        state.process = state.process or batch.process
+        after = (merged.t_end_s - state.reported_to_s) / merged.ts_s
+        state.new_since_report = int(round(min(after, merged.count)))
+        state.arrived_at = now_s
+        self.history_merged += 1
         if not state.queued and self._is_due(state):
             state.queued = True
             self._queue.append(loop_id)
@@ -273,15 +332,18 @@ class AgentCore:
         """A report on the key space (from any agent): the loop's windows up to its end are reported.
         Only the end time is read; anything unreadable is ignored (it cannot stop a report)."""
         loop_id = keys.loop_id_of(self.settings.prefix, key)
-        state = self.loops.get(loop_id) if loop_id is not None else None
-        if state is None:
+        if loop_id is None:
             return
         try:
             t_end_s = json.loads(payload).get("t_end_s")
         except (ValueError, AttributeError):
             return
         if isinstance(t_end_s, int | float):
-            state.reported_to_s = max(state.reported_to_s, float(t_end_s))
+            t_end_s = max(self.reported_to_s.get(loop_id, -math.inf), float(t_end_s))
+            self.reported_to_s[loop_id] = t_end_s
+            state = self.loops.get(loop_id)
+            if state is not None:
+                state.reported_to_s = t_end_s
 
     def reported(self, loop_id: str, verdict: str, reading: Reading | None) -> None:
         """A report went out: keep its fresh friction reading, count a carried one, or drop the

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +49,8 @@ from sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
 PHYSICAL_MAX_SE_PCT = 0.25
 SEGMENTED_MAX_SE_PCT = 0.5
 """Trust for the segmented (noisy-window) reading; chosen on 200 random loops of seed 12345, not the holdout."""
+STAGES = ("verdict", "readings", "report")
+"""The pipeline's stages: data checks, evidence and verdict; INLPCA, slips and networks; the report's assembly."""
 MAX_SLIPS_PER_PERIOD = 12  # more is noise read as slips (slow cycles may slip ~6 times a period)
 
 
@@ -111,6 +114,9 @@ class Quantifier:
         self.model_version = model_version(self.thesis, self.cycle)
         own = Path(models_dir) / DETECTOR_FILE if models_dir is not None else None
         self.detector = Detector.load(own if own is not None and own.is_file() else DEFAULT_MODELS_DIR / DETECTOR_FILE)
+        self.cpu_s = dict.fromkeys(STAGES, 0.0)
+        """CPU seconds of the calling thread in each stage, summed over every window quantified (the
+        agent's profile: ``stiction bench throughput`` prints it)."""
 
     def quantify(self, windows: Sequence[Window], denoise: bool | None = None) -> list[StictionReport]:
         """Reports in the order of ``windows``; windows of equal length and sample time are batched.
@@ -126,9 +132,7 @@ class Quantifier:
         """As ``quantify``, with what the pipeline saw in each window (the INLPCA runs on every one)."""
         return [(r.report, r.details) for r in self.results(windows, denoise=denoise, details=True)]
 
-    def results(
-        self, windows: Sequence[Window], denoise: bool | None = None, details: bool = False
-    ) -> list[Result]:
+    def results(self, windows: Sequence[Window], denoise: bool | None = None, details: bool = False) -> list[Result]:
         """Report, details (None unless asked for) and the fresh friction reading of every window."""
         for w in windows:
             w.validate()
@@ -145,6 +149,7 @@ class Quantifier:
         return out
 
     def _batch(self, op, pv, ts_s, windows, denoise, details=True) -> list[Result]:
+        clock = time.thread_time()
         n = op.shape[0]
         sps = [None if w.sp is None else np.asarray(w.sp, float) for w in windows]
         declared = np.array([w.process == "level" for w in windows])
@@ -156,6 +161,7 @@ class Quantifier:
             decide(self.detector, ev, [c.message for c in blocking(problems)])
             for ev, problems in zip(evs, problems_all, strict=True)
         ]
+        clock = self._lap("verdict", clock)
         sticky = np.array([v.verdict == "stiction" for v in verdicts])
         carried = sticky & np.array([w.carry is not None for w in windows])
         deferred = sticky & ~carried & np.array([w.defer_reading for w in windows])
@@ -187,6 +193,7 @@ class Quantifier:
             & (phys.fd_se_pct <= np.where(phys.segmented, SEGMENTED_MAX_SE_PCT, PHYSICAL_MAX_SE_PCT))
             & (phys.slips <= slip_limit)
         )
+        clock = self._lap("readings", clock)
         results: list[Result] = []
         for i, w in enumerate(windows):
             problems, ev, verdict = problems_all[i], evs[i], verdicts[i]
@@ -235,11 +242,15 @@ class Quantifier:
                 fields = {k: getattr(report, k) for k in READING_FIELDS}
                 reading = Reading(fields, tuple(warnings[fresh:]), w.t_end_s)
             results.append(Result(report, None, reading))
+        self._lap("report", clock)
         if not details:
             return results
-        return [
-            r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)
-        ]
+        return [r._replace(details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)]
+
+    def _lap(self, stage: str, since: float) -> float:
+        now = time.thread_time()
+        self.cpu_s[stage] += now - since
+        return now
 
     def _report(
         self, w, i, a, use, method, estimate, shown, verdict, ev, problems, warnings, ood, level, ts_s, identified

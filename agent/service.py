@@ -1,10 +1,12 @@
 """The agent on Zenoh: the only module of the agent that talks to it.
 
-The subscriber callback only queues ``(key, payload, encoding, arrival)``: Zenoh
+The subscriber callback only queues ``(key, payload, encoding, arrival, history)``: Zenoh
 runs callbacks on one thread holding the GIL.  One worker loop drains the queue into
 the pure core, quantifies the windows that are due in batches, and publishes their
 reports.  Liveliness tokens of ``{prefix}/agent/*`` give the set of live agents, and
-with it which loops are this agent's.
+with it which shards are this agent's: it subscribes to those shards' sample keys only (and
+to the spec's unsharded key, which every agent receives), and asks the publishers for the
+recent samples of a shard it takes over.
 """
 
 from __future__ import annotations
@@ -33,6 +35,8 @@ log = logging.getLogger(__name__)
 INGEST_PER_PASS = 1000
 """Messages ingested before the worker looks for due windows: a window due early in a burst of
 thousands of messages is reported without waiting for the whole burst."""
+HISTORY_TIMEOUT_S = 30.0
+"""How long the publishers have to answer for a shard's recent samples."""
 BACKLOG_MESSAGES = 20000
 """Past this many queued messages the agent is behind: it ingests them all first, so the queue
 stays bounded and reports are late rather than samples stranded."""
@@ -96,10 +100,26 @@ class AgentService:
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
         self._size_queue: dict = {}  # loop_id -> its newest window waiting for the worker
+        self._shard_subs: dict[int, object] = {}
+        self.messages_received = 0
+        self._cpu_s = {"ingest": 0.0, "publish": 0.0}  # the worker thread's own stages besides the pipeline's
+        self._worker_cpu_s = 0.0  # the worker thread's CPU seconds as of its last pass
 
     # zenoh callbacks: keep them tiny ------------------------------------------------------------
     def _on_sample(self, sample) -> None:
-        self._inbox.append((str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), time.monotonic()))
+        self._inbox.append(
+            (str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), time.monotonic(), False)
+        )
+        self._wake.set()
+
+    def _on_history(self, reply) -> None:
+        """A publisher's recent samples of one loop of a shard this agent has just taken on."""
+        sample = reply.ok
+        if sample is None:
+            return
+        self._inbox.append(
+            (str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), time.monotonic(), True)
+        )
         self._wake.set()
 
     def _on_agent(self, sample) -> None:
@@ -143,19 +163,39 @@ class AgentService:
         self._declared = [
             s.liveliness().declare_subscriber(keys.all_agents(p), self._on_agent, history=True),
             s.liveliness().declare_token(keys.agent_token(p, self.settings.agent_id)),
-            s.declare_subscriber(keys.all_samples(p), self._on_sample),
+            s.declare_subscriber(keys.all_samples(p), self._on_sample),  # the spec's key: every agent
             s.declare_subscriber(keys.all_reports(p), self._on_report),
             s.declare_queryable(keys.all_reports(p), self._on_query),
         ]
         if self.sink is not None:  # the viewer shows the truth where the simulator publishes it
             self._declared.append(s.declare_subscriber(keys.all_truths(p), self._on_truth))
+        self._sync_shards()
         log.info("agent %s listening on %s", self.settings.agent_id, keys.all_samples(p))
         return self
 
+    def _sync_shards(self) -> None:
+        """Subscribe to the shards this agent owns among the live agents, drop the others, and ask the
+        publishers for the recent samples of the shards it has just taken on."""
+        p, wanted = self.settings.prefix, self.core.owned_shards()
+        for k in [k for k in self._shard_subs if k not in wanted]:
+            self._shard_subs.pop(k).undeclare()
+        new = sorted(wanted - set(self._shard_subs))
+        for k in new:
+            self._shard_subs[k] = self.session.declare_subscriber(keys.shard_samples(p, k), self._on_sample)
+        for k in new:  # after subscribing: what comes live meanwhile is merged behind the history
+            self.session.get(
+                f"{keys.shard_samples(p, k)}?last={self.settings.window_samples}",
+                self._on_history,
+                consolidation=self._zenoh.ConsolidationMode.NONE,
+                timeout=HISTORY_TIMEOUT_S,
+            )
+        if new:
+            log.info("agent %s: %d shards taken on, %d held", self.settings.agent_id, len(new), len(wanted))
+
     def close(self) -> None:
-        for d in reversed(self._declared):
+        for d in [*reversed(self._declared), *self._shard_subs.values()]:
             d.undeclare()
-        self._declared = []
+        self._declared, self._shard_subs = [], {}
         if self._size_pool is not None:
             self._size_pool.shutdown(wait=False, cancel_futures=True)
             self._size_pool = None
@@ -174,23 +214,33 @@ class AgentService:
         backlogged agent stops within one batch of SIGTERM, not after its whole backlog)."""
         with self._alive_lock:
             alive = set(self._alive)
-        self.core.set_agents(alive)
+        if self.core.set_agents(alive):
+            self._sync_shards()
         self._collect_sizings()
         while self._reports_seen:  # before any window is due: a report made elsewhere is never made twice
             self.core.seen_report(*self._reports_seen.popleft())
+        clock = time.thread_time()
         n = 0
         limit = INGEST_PER_PASS if len(self._inbox) <= BACKLOG_MESSAGES else len(self._inbox)
         while self._inbox and n < limit:
             if n % INGEST_PER_PASS == 0 and stop is not None and stop.is_set():
                 return False
-            key, payload, encoding, arrived = self._inbox.popleft()
-            self.core.ingest(key, payload, encoding, arrived)
+            key, payload, encoding, arrived, history = self._inbox.popleft()
+            self.messages_received += 1
+            self.core.ingest(key, payload, encoding, arrived, history)
             n += 1
         due = self.core.due(time.monotonic())
+        now = time.thread_time()
+        self._cpu_s["ingest"] += now - clock
         for i in range(0, len(due), self.settings.max_batch):
             if stop is not None and stop.is_set():
                 return False
+            in_pipeline = sum(self.quantifier.cpu_s.values())
             self._report(due[i : i + self.settings.max_batch])
+            later = time.thread_time()
+            self._cpu_s["publish"] += later - now - (sum(self.quantifier.cpu_s.values()) - in_pipeline)
+            now = later
+        self._worker_cpu_s = time.thread_time()
         if time.monotonic() - self._last_health >= self.settings.health_every_s:
             self.publish_health()
         return bool(n or due)
@@ -307,7 +357,19 @@ class AgentService:
             samples_filled=self.core.samples_filled,
             readings_deferred=self.core.readings_deferred,
             loops_sized=self.sizing.done if self.sizing is not None else 0,
+            cpu_s=self.cpu_profile(),
+            messages_received=self.messages_received,
+            shards_owned=len(self._shard_subs),
+            windows_from_history=self.core.history_merged,
         )
+
+    def cpu_profile(self) -> dict[str, float]:
+        """CPU seconds by stage since the start: the worker's ingest (decoding, windows), the pipeline's
+        stages, publishing; ``zenoh_and_callbacks`` is the rest of the process (Zenoh's threads, the
+        subscriber callbacks, the sizing's hand-off, start-up)."""
+        worker = {**self._cpu_s, **self.quantifier.cpu_s}
+        rest = time.process_time() - self._worker_cpu_s
+        return {k: round(v, 3) for k, v in (worker | {"zenoh_and_callbacks": max(rest, 0.0)}).items()}
 
     def publish_health(self) -> AgentHealth:
         self._last_health = time.monotonic()

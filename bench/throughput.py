@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from bridge.publish import SamplePublisher
 from schemas import keys
-from sim.publisher import batch_payload, loop_specs
+from sim.publisher import batch, loop_specs
 from sim.stream import LoopStream
 from stiction import zenoh_config
 
@@ -94,6 +95,15 @@ def _loops(mix: str, n: int, window: int, n_live: int):
     return part(0, window), part(window, total), None
 
 
+def _profile(health: dict[str, dict]) -> dict[str, float]:
+    """The agents' CPU seconds by stage (their health messages), summed over agents."""
+    total: dict[str, float] = {}
+    for h in list(health.values()):
+        for k, v in h.get("cpu_s", {}).items():
+            total[k] = total.get(k, 0.0) + v
+    return total
+
+
 def _p99_by_bucket(at: list[tuple[int, float]], samples: int) -> list[float | None]:
     """p99 latency of the reports whose windows ended in each bucket of ``samples`` live samples
     (10 s of stream): where in the run the late reports were."""
@@ -116,11 +126,15 @@ def run_throughput(
     kill_after_s: float | None = None,
     mix: str = "canonical",
     size_every_min: float = 60.0,
+    batch_s: float = 1.0,
+    sharded: bool = True,
 ) -> dict:
     """``kill_after_s``: SIGKILL the first agent that many seconds into the live phase (the others
     must take its loops over, each interval reported once).  ``mix``: ``canonical`` (the thesis's
     level loop, every valve sticky: the dearest report) or ``plant`` (the plant-like loops of
-    ``sim/plant_loops.py``, one sixth sticky, the others look-alikes or noise)."""
+    ``sim/plant_loops.py``, one sixth sticky, the others look-alikes or noise).  ``batch_s``: seconds of
+    stream per message (1: a sample a message at 1 Hz).  ``sharded``: samples on the loops' shard keys
+    (each agent receives its own shards), else on the spec's key (every agent receives every loop)."""
     n_live = int(seconds * speed)
     ids = [f"b{i:05d}" for i in range(loops)]
     head, live, process = _loops(mix, loops, window, n_live)
@@ -192,40 +206,36 @@ def run_throughput(
             if time.monotonic() > deadline:
                 raise RuntimeError("agents did not come up")
             tick.wait(0.2)
-        put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
-        pubs = [session.declare_publisher(keys.samples(PREFIX, i), **put) for i in ids]
+        while len({len(h.get("agents_alive", [])) for h in health.values()} | {agents}) > 1 or len(health) < agents:
+            if time.monotonic() > deadline:
+                raise RuntimeError("agents did not see each other")
+            tick.wait(0.2)  # each agent has settled on its own shards before the first sample
+        tick.wait(1.0)
+        out = SamplePublisher(session, PREFIX, sharded=sharded, keep_samples=window)
         ts = 1.0
         # fill the windows in one burst, loop j short of full by j mod report_every samples: loops then fall
         # due at staggered times, as in a plant, not all in the same second
         short = [int(j % report_every) for j in range(loops)]
-        for j, pub in enumerate(pubs):
+        for j, loop_id in enumerate(ids):
             sl = slice(short[j], window)
-            pub.put(
-                batch_payload(
-                    ids[j],
-                    head.seq + short[j],
-                    head.t0_s + short[j] * ts,
-                    ts,
-                    head.op[j, sl],
-                    head.pv[j, sl],
-                    head.sp[j, sl],
-                    process,
-                )
-            )
+            seq, t0_s = head.seq + short[j], head.t0_s + short[j] * ts
+            out.put(batch(loop_id, seq, t0_s, ts, head.op[j, sl], head.pv[j, sl], head.sp[j, sl], process))
         # the burst is set-up, not load: start the clock once every agent has ingested it (for 10,000
         # loops 1-2.5 s here, so the live phase no longer overlaps it)
-        filled = int(loops * window - sum(short)) * min(agents, 2)
+        holders = 1 if sharded else min(agents, 2)  # the owner, and on the spec's key the replica too
+        filled = int(loops * window - sum(short)) * holders
         fill_started = time.monotonic()
         while sum(h["samples"] for h in health.values()) < filled and time.monotonic() < fill_started + 300:
             tick.wait(0.5)
         fill_s = time.monotonic() - fill_started
+        profile0 = _profile(health)
         sent_at = np.zeros(n_live)
         started = time.monotonic()
         cpu0 = [_proc_stats(p.pid)[0] for p in procs]
         children0 = [_children_cpu_s(p.pid) for p in procs]
-        per_second = max(int(speed), 1)
+        per_message = max(int(round(speed * batch_s)), 1)
         killed_at = None
-        for k in range(0, n_live, per_second):
+        for k in range(0, n_live, per_message):
             if kill_after_s is not None and killed_at is None and k / speed >= kill_after_s:
                 killed_stats = _proc_stats(procs[0].pid)
                 procs[0].kill()  # SIGKILL: no goodbye, only its liveliness token vanishes
@@ -235,23 +245,15 @@ def run_throughput(
             wait = due - time.monotonic()
             if wait > 0:
                 tick.wait(wait)
-            sl = slice(k, min(k + per_second, n_live))
-            for j, pub in enumerate(pubs):
-                pub.put(
-                    batch_payload(
-                        ids[j],
-                        live.seq + k,
-                        live.t0_s + k * ts,
-                        ts,
-                        live.op[j, sl],
-                        live.pv[j, sl],
-                        live.sp[j, sl],
-                        process,
-                    )
-                )
+            sl = slice(k, min(k + per_message, n_live))
+            seq, t0_s = live.seq + k, live.t0_s + k * ts
+            for j, loop_id in enumerate(ids):
+                out.put(batch(loop_id, seq, t0_s, ts, live.op[j, sl], live.pv[j, sl], live.sp[j, sl], process))
             sent_at[sl] = time.monotonic()
         publish_s = time.monotonic() - started
         tick.wait(3.0)  # let the last windows report
+        tick.wait(2.5)  # and the agents' next health message carry their profile to the end
+        profile = {k: v - profile0.get(k, 0.0) for k, v in _profile(health).items()}
         wall = time.monotonic() - started
         stats = [killed_stats if i == 0 and killed_at is not None else _proc_stats(p.pid) for i, p in enumerate(procs)]
         children = [_children_cpu_s(p.pid) for p in procs]
@@ -267,6 +269,7 @@ def run_throughput(
                 p.wait()
         sub.undeclare()
         hsub.undeclare()
+        out.close()
     with lock:
         rows = [r for r in received if r[1] is not None and r[1] >= live.t0_s]
     at = [
@@ -283,6 +286,7 @@ def run_throughput(
         for k_, v in h["rejected"].items():
             rejected[k_] = rejected.get(k_, 0) + v
     published = int(loops * (window + n_live) - sum(short))
+    messages_published = loops * (1 + -(-n_live // per_message))
     # loop j is full after live sample short-1 (at the fill if short is 0), then due every report_every samples;
     # only reports of windows ending in the live phase count
     expected_reports = int(sum(n_live // report_every if s == 0 else (n_live - s) // report_every + 1 for s in short))
@@ -305,7 +309,14 @@ def run_throughput(
         "samples_ingested": samples_agents,
         # each loop is held by min(agents, 2) agents (its owner and the replica that would inherit it);
         # a killed agent's count stops with it, so the figure means nothing then
-        "samples_lost": published * min(agents, 2) - samples_agents if health and killed_at is None else None,
+        "samples_lost": published * holders - samples_agents if health and killed_at is None else None,
+        "sharded": sharded,
+        "batch_s": per_message / speed,
+        # the share of the published messages each agent received (sharded: about 1/agents)
+        "messages_received_share": [
+            h.get("messages_received", 0) / max(messages_published, 1) for _, h in sorted(health.items())
+        ],
+        "windows_from_history": sum(h.get("windows_from_history", 0) for h in health.values()),
         "killed_agent_at_s": None if killed_at is None else killed_at / speed,
         **_exactly_once(rows, report_every * ts),
         "mix": mix,
@@ -319,5 +330,7 @@ def run_throughput(
         "sizing_worker_cpu_share": [(c1 - c0) / wall for c1, c0 in zip(children, children0, strict=True)],
         "loops_sized": sum(h.get("loops_sized", 0) for h in health.values()),
         "agent_peak_rss_mb": max(s[1] for s in stats),
+        # the agents' CPU by stage over the live phase, summed over agents, in cores
+        "agent_cpu_by_stage": {k: v / wall for k, v in profile.items()},
         "agents_killed_after_sigterm": stopped_late,
     }

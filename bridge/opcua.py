@@ -3,7 +3,7 @@
 One asyncio task keeps a client connected (reconnecting by itself with a short back-off after
 the server goes away), one drains the subscription's notifications into the sampler, one ticks
 the sampler on the loops' grid and hands each batch to ``publish``.  Nothing here knows Zenoh:
-``publish(loop_id, payload)`` and ``on_health(health)`` are the caller's.
+``publish(batch)`` (a ``SampleBatch``'s fields) and ``on_health(health)`` are the caller's.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from bridge.sampler import Reading, Sampler, encode
+from bridge.sampler import Reading, Sampler
 from schemas.errors import InputError
 from schemas.loop_file import LoopFile
 from schemas.messages import BridgeHealth
@@ -53,7 +53,7 @@ class OpcuaBridge:
         self,
         loop_file: LoopFile,
         settings: BridgeSettings,
-        publish: Callable[[str, bytes], None],
+        publish: Callable[[dict], None],
         on_health: Callable[[BridgeHealth], None] | None = None,
         clock: Callable[[], float] = time.time,
     ):
@@ -210,7 +210,7 @@ class OpcuaBridge:
     # out --------------------------------------------------------------------------------------------
     def _publish_due(self) -> None:
         for batch in self.sampler.due(self.sampler.server_time(self.clock())):
-            self.publish(batch["loop_id"], encode(batch))
+            self.publish(batch)
 
     def health(self) -> BridgeHealth:
         s = self.sampler

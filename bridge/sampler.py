@@ -12,7 +12,6 @@ Pure: no OPC UA, no Zenoh, no clock of its own; the edge passes server times in.
 
 from __future__ import annotations
 
-import json
 import math
 from collections import Counter, deque
 from dataclasses import dataclass
@@ -184,7 +183,3 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     for lo, hi in zip(edges[::2], edges[1::2], strict=True):
         out += [(s, min(s + MAX_BATCH_SAMPLES, hi)) for s in range(lo, hi, MAX_BATCH_SAMPLES)]
     return out
-
-
-def encode(batch: dict) -> bytes:
-    return json.dumps(batch).encode()

@@ -48,8 +48,10 @@ class LoopTruth(BaseModel):
     loop_id: str
     fs_pct: float
     fd_pct: float
-    s_pct: float = Field(description="band S, % of span: (fs + fd)/12, the OP travel after a reversal before the "
-                         "stem moves (before stiction 0.2: fs/12)")
+    s_pct: float = Field(
+        description="band S, % of span: (fs + fd)/12, the OP travel after a reversal before the "
+        "stem moves (before stiction 0.2: fs/12)"
+    )
     j_pct: float = Field(description="slip jump J, % of span: (fs - fd)/12")
     loop: str
     valve: str
@@ -86,6 +88,18 @@ class AgentHealth(BaseModel):
     )
     loops_sized: int = Field(
         0, description="background sizings done: sticky loops of unknown process identified and S, J read under it"
+    )
+    messages_received: int = Field(
+        0, description="sample messages received (of every loop on the keys this agent subscribes to, held or not)"
+    )
+    shards_owned: int = Field(0, description="shards of the sharded sample keys this agent owns and subscribes to")
+    windows_from_history: int = Field(
+        0, description="loop windows rebuilt from a publisher's history (shards taken on after a join or a death)"
+    )
+    cpu_s: dict[str, float] = Field(
+        default_factory=dict,
+        description="CPU seconds since the start by stage: ingest, verdict, readings, report, publish (the worker "
+        "thread) and zenoh_and_callbacks (the rest of the process)",
     )
 
 

@@ -1,14 +1,13 @@
 """``stiction sim``: many simulated, noisy loops streamed over Zenoh (the simulator's only Zenoh module).
 
 Each loop has its own fs/fd, disturbance and seed; the batch simulator advances all of
-them together.  Samples go out with congestion control BLOCK: a slow subscriber slows
-the publisher down instead of losing samples.  Each loop's truth is put once and
-answered on ``get`` for late joiners.
+them together.  Samples go out through ``bridge.publish`` (sharded keys, congestion control
+BLOCK, the recent samples answered on ``get``).  Each loop's truth is put once and answered on
+``get`` for late joiners.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 import time
@@ -17,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bridge.publish import SamplePublisher
 from schemas import keys
 from schemas.messages import LoopTruth
 from sim.grid import random_disturbance
@@ -40,6 +40,10 @@ class PublisherSettings:
     noise_free_share: float = 0.25
     duration_s: float | None = None
     """Stop after this much simulated time (None: until stopped)."""
+    sharded: bool = True
+    """Samples on each loop's shard key (agents receive their own shards only); False: the spec's key."""
+    history_samples: int = 1000
+    """Recent samples of each loop kept to answer an agent that takes a shard over (0: none)."""
 
 
 def loop_specs(n: int, seed: int, noise_free_share: float = 0.25) -> dict[str, LoopSpec]:
@@ -71,21 +75,9 @@ def truth_message(loop_id: str, spec: LoopSpec) -> LoopTruth:
     )
 
 
-def batch_payload(loop_id: str, seq: int, t0_s: float, ts_s: float, op, pv, sp, process) -> bytes:
-    """A ``SampleBatch`` as JSON, built directly: pydantic per message is too slow for 10,000 loops."""
-    return json.dumps(
-        {
-            "schema_version": 1,
-            "loop_id": loop_id,
-            "seq": seq,
-            "t0_s": t0_s,
-            "ts_s": ts_s,
-            "op": op.tolist(),
-            "pv": pv.tolist(),
-            "sp": sp.tolist(),
-            "process": process,
-        }
-    ).encode()
+def batch(loop_id: str, seq: int, t0_s: float, ts_s: float, op, pv, sp, process) -> dict:
+    """A ``SampleBatch``'s fields, for ``bridge.publish.SamplePublisher.put``."""
+    return dict(loop_id=loop_id, seq=seq, t0_s=t0_s, ts_s=ts_s, op=op, pv=pv, sp=sp, process=process)
 
 
 def run(
@@ -107,12 +99,7 @@ def run(
             query.reply(keys.truth(settings.prefix, lid), truths[lid], encoding=json_enc)
 
     queryable = session.declare_queryable(keys.all_truths(settings.prefix), answer_truth)
-    publishers = [
-        session.declare_publisher(
-            keys.samples(settings.prefix, i), encoding=json_enc, congestion_control=zenoh.CongestionControl.BLOCK
-        )
-        for i in ids
-    ]
+    out = SamplePublisher(session, settings.prefix, settings.sharded, settings.history_samples)
     stream = LoopStream(list(specs.values()))
     ts = stream.ts_s
     if settings.warmup_s > 0:
@@ -129,12 +116,9 @@ def run(
             if n:
                 owed -= n
                 chunk = stream.next(n)
-                for j, pub in enumerate(publishers):
-                    pub.put(
-                        batch_payload(
-                            ids[j], chunk.seq, chunk.t0_s, ts, chunk.op[j], chunk.pv[j], chunk.sp[j], process[j]
-                        )
-                    )
+                for j, loop_id in enumerate(ids):
+                    op, pv, sp = chunk.op[j], chunk.pv[j], chunk.sp[j]
+                    out.put(batch(loop_id, chunk.seq, chunk.t0_s, ts, op, pv, sp, process[j]))
                 published += n
             tick += 1
             if on_tick:
@@ -145,7 +129,6 @@ def run(
             if delay > 0:
                 stop.wait(delay)
     finally:
-        for pub in publishers:
-            pub.undeclare()
+        out.close()
         queryable.undeclare()
     return published

@@ -22,6 +22,32 @@ def add_arguments(p: argparse.ArgumentParser, listen_default: bool = True) -> No
     p.add_argument("--config", type=Path, help="a full Zenoh JSON5 configuration file; flags override it")
 
 
+def add_publisher_arguments(p: argparse.ArgumentParser) -> None:
+    """The sample publishers' flags (``stiction sim``, ``replay``, ``bridge opcua``)."""
+    p.add_argument(
+        "--unsharded",
+        action="store_true",
+        help="put samples on {prefix}/loop/{id}/samples, which every agent receives (default: on the loop's "
+        "shard key {prefix}/loop/{id}/samples/{shard}, received by the shard's owner only)",
+    )
+    p.add_argument(
+        "--history",
+        type=int,
+        default=1000,
+        metavar="SAMPLES",
+        help="recent samples of each loop kept to answer an agent that takes its shard over (default 1000; 0: none)",
+    )
+
+
+def publisher(args, session):
+    """The ``SamplePublisher`` the publisher flags ask for."""
+    from bridge.publish import SamplePublisher
+
+    if args.history < 0:
+        raise InputError("--history must be 0 or more samples")
+    return SamplePublisher(session, args.prefix, sharded=not args.unsharded, keep_samples=args.history)
+
+
 def free_loopback_port() -> int:
     """A TCP port on 127.0.0.1 that nothing listens on now (for Zenoh, or an OPC UA server in tests)."""
     with socket.socket() as s:

@@ -56,6 +56,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument(
         "--size-every", type=float, default=60.0, metavar="MINUTES", help="the agents' --size-every (default 60)"
     )
+    t.add_argument(
+        "--batch-s", type=float, default=1.0, metavar="S", help="seconds of stream per message (default 1: one sample)"
+    )
+    t.add_argument("--unsharded", action="store_true", help="publish on the spec's key, which every agent receives")
     t.add_argument("--json", action="store_true")
     b = sub.add_parser("bridge", help="OPC UA plant server -> bridge -> subscriber: samples lost, latency, CPU")
     b.add_argument("--loops", type=int, default=1000)
@@ -318,6 +322,8 @@ def _throughput(args) -> None:
         kill_after_s=args.kill_after,
         mix=args.mix,
         size_every_min=args.size_every,
+        batch_s=args.batch_s,
+        sharded=not args.unsharded,
     )
     f |= {"host": _machine()}
     if args.json:
@@ -328,7 +334,10 @@ def _throughput(args) -> None:
         if f["latency_p50_s"] is not None
         else "no reports"
     )
-    print(f"{f['loops']} {f['mix']} loops at {f['speed']:g} Hz, {f['agents']} agent(s), {f['seconds']:g} s")
+    print(
+        f"{f['loops']} {f['mix']} loops at {f['speed']:g} Hz, {f['agents']} agent(s), {f['seconds']:g} s, "
+        f"{f['batch_s']:g} s of samples a message on {'shard keys' if f['sharded'] else 'the spec key'}"
+    )
     print(f"  verdicts reported: {', '.join(f'{k} {v}' for k, v in sorted(f['verdicts'].items()))}")
     print(
         f"  samples/s ingested {f['samples_per_s']:.0f}   reports/s {f['reports_per_s']:.1f} "
@@ -345,6 +354,11 @@ def _throughput(args) -> None:
     by = " ".join("-" if x is None else f"{x:.2f}" for x in f["latency_p99_by_10s"])
     print(f"  p99 by 10 s of stream (s): {by}")
     print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
+    shares = ", ".join(f"{x:.0%}" for x in f["messages_received_share"])
+    print(
+        f"  messages received by each agent: {shares} of those published; "
+        f"windows from history {f['windows_from_history']}"
+    )
     killed = f" (agent 0 SIGKILLed at {f['killed_agent_at_s']:.0f} s)" if f["killed_agent_at_s"] is not None else ""
     print(
         f"  exactly once{killed}: {f['reports_duplicated']} reports duplicated, "
@@ -355,6 +369,8 @@ def _throughput(args) -> None:
         f"peak RSS {f['agent_peak_rss_mb']:.0f} MB; sizing worker "
         f"{', '.join(f'{c:.0%}' for c in f['sizing_worker_cpu_share'])} of a core, {f['loops_sized']} loops sized"
     )
+    stages = f["agent_cpu_by_stage"]
+    print("  agent CPU by stage (cores): " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
 
 
 def _bridge(args) -> None:

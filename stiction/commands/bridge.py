@@ -47,6 +47,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     o.add_argument("--bridge-id", help="unique per bridge (default: host-pid)")
     o.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(o)
+    zenoh_config.add_publisher_arguments(o)
 
 
 def settings_from(args: argparse.Namespace, loop_file):
@@ -115,15 +116,13 @@ def run(args: argparse.Namespace) -> int:
     status = Status(args.status_every)
     with zenoh_config.open_from_args(args) as session:
         put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
-
-        def publish(loop_id: str, payload: bytes) -> None:
-            session.put(keys.samples(args.prefix, loop_id), payload, **put)
+        out = zenoh_config.publisher(args, session)
 
         def on_health(health) -> None:
             session.put(keys.bridge_health(args.prefix, settings.bridge_id), health.model_dump_json().encode(), **put)
             status.maybe(health)
 
-        bridge = OpcuaBridge(loop_file, settings, publish, on_health)
+        bridge = OpcuaBridge(loop_file, settings, out.put, on_health)
         print(
             f"bridge {settings.bridge_id}: {len(loop_file.loops)} loops from {settings.endpoint} "
             f"every {loop_file.sample_time_s:g} s to {keys.all_samples(args.prefix)}",

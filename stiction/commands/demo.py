@@ -175,6 +175,7 @@ def _measured(paths) -> tuple[list, dict[str, str | None]]:
 def run(args: argparse.Namespace) -> int:
 
     from agent.service import AgentService, AgentSettings
+    from bridge.publish import SamplePublisher
     from bridge.replay import Schedule
     from sim.publisher import PublisherSettings
     from sim.publisher import run as publish
@@ -228,9 +229,11 @@ def run(args: argparse.Namespace) -> int:
             ),
             threading.Thread(target=agent.run, args=(stop,), daemon=True),
         ]
+        replayed = None
         if tracks:
             schedule = Schedule(tracks, args.speed)
-            threads.append(threading.Thread(target=replay, args=(schedule, sim_s, args.prefix, stop, 4.0), daemon=True))
+            replayed = SamplePublisher(sim_s, args.prefix)
+            threads.append(threading.Thread(target=replay, args=(schedule, replayed, stop, 4.0), daemon=True))
         started = time.monotonic()
         for t in threads:
             t.start()
@@ -254,6 +257,8 @@ def run(args: argparse.Namespace) -> int:
                 t.join(timeout=10)
             wall = time.monotonic() - started
             agent.close()
+            if replayed is not None:
+                replayed.close()
             dashboard.close()
             if sink is not None:
                 sink.close()

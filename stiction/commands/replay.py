@@ -31,6 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--process", choices=["level"], help="declare every replayed loop the canonical level loop")
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(p)
+    zenoh_config.add_publisher_arguments(p)
 
 
 def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
@@ -52,19 +53,15 @@ def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, li
     return tracks, failed
 
 
-def publish(schedule, session, prefix: str, stop: threading.Event, rate_hz: float, status_every_s: float = 0.0):
-    """Play ``schedule`` into the key space until it is done or ``stop`` is set."""
-    import zenoh
-
-    from bridge.sampler import encode
-
-    put = {"encoding": zenoh.Encoding.APPLICATION_JSON, "congestion_control": zenoh.CongestionControl.BLOCK}
+def publish(schedule, out, stop: threading.Event, rate_hz: float, status_every_s: float = 0.0):
+    """Play ``schedule`` into the key space (``out``: a ``bridge.publish.SamplePublisher``) until it is
+    done or ``stop`` is set."""
     started = last_status = time.monotonic()
     last_samples = 0
     while not stop.is_set():
         now = time.monotonic()
         for batch in schedule.due(now - started):
-            session.put(keys.samples(prefix, batch["loop_id"]), encode(batch), **put)
+            out.put(batch)
         if schedule.done:
             break
         if status_every_s > 0 and now - last_status >= status_every_s:
@@ -100,6 +97,10 @@ def run(args: argparse.Namespace) -> int:
     )
     stop = stop_on_signals()
     with zenoh_config.open_from_args(args) as session:
-        sent = publish(schedule, session, args.prefix, stop, args.rate, args.status_every)
+        out = zenoh_config.publisher(args, session)
+        try:
+            sent = publish(schedule, out, stop, args.rate, args.status_every)
+        finally:
+            out.close()
     print(f"replay: done, {sent} samples of {len(tracks)} loops sent", file=sys.stderr)
     return 1 if failed else 0

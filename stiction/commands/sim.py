@@ -25,6 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--duration-s", type=float, help="stop after this much simulated time")
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(p)
+    zenoh_config.add_publisher_arguments(p)
 
 
 def stop_on_signals() -> threading.Event:
@@ -64,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
         speed=args.speed,
         rate_hz=args.rate,
         duration_s=args.duration_s,
+        sharded=not args.unsharded,
+        history_samples=args.history,
     )
     log.info("settings: %s", settings)
     stop = stop_on_signals()

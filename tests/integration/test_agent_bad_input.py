@@ -10,10 +10,11 @@ import zenoh
 
 from agent.pipeline import Window
 from agent.service import AgentService, AgentSettings
+from bridge.publish import encode
 from schemas import keys
 from schemas.report import StictionReport
 from sim.grid import case_specs
-from sim.publisher import batch_payload
+from sim.publisher import batch
 from sim.stream import LoopStream
 from stiction import zenoh_config
 from tests.integration.conftest import wait_until
@@ -76,7 +77,7 @@ def test_bad_messages_are_counted_and_good_loops_unaffected(stack, quantifier):
     sent_op, sent_pv = [[] for _ in GOOD], [[] for _ in GOOD]
 
     def good(seq, j, chunk):
-        return batch_payload(GOOD[j], seq, float(seq), 1.0, chunk.op[j], chunk.pv[j], chunk.sp[j], "level")
+        return encode(batch(GOOD[j], seq, float(seq), 1.0, chunk.op[j], chunk.pv[j], chunk.sp[j], "level"))
 
     bad_sent = False
     for _ in range((WINDOW + EVERY) // BATCH):
@@ -144,7 +145,7 @@ def test_get_answers_the_latest_report(stack):
         _put(
             pub,
             "C6",
-            batch_payload("C6", chunk.seq, float(chunk.seq), 1.0, chunk.op[0], chunk.pv[0], chunk.sp[0], "level"),
+            encode(batch("C6", chunk.seq, float(chunk.seq), 1.0, chunk.op[0], chunk.pv[0], chunk.sp[0], "level")),
         )
     wait_until(lambda: reports.get("C6"), 30, "a report of C6")
     replies = [r.ok for r in pub.get(keys.report(PREFIX, "C6"), timeout=5) if r.ok is not None]

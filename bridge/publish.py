@@ -1,0 +1,80 @@
+"""Samples onto Zenoh: the one place this project's publishers (``stiction sim``, ``replay``, the OPC UA
+bridge, the throughput bench) put ``SampleBatch`` messages and answer for their recent history.
+
+By default each loop goes on its shard's key ``{prefix}/loop/{id}/samples/{shard}`` (agents then
+receive only their own shards' samples) and ``get`` on ``{prefix}/loop/*/samples/...?last=N`` is
+answered with every matching loop's last N samples (``bridge.history``); ``sharded=False`` puts
+on the spec's key ``{prefix}/loop/{id}/samples``, which every agent receives.  Congestion control
+is BLOCK: a slow subscriber slows the publisher down instead of losing samples.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import numpy as np
+
+from bridge.history import SampleHistory
+from schemas import keys
+
+log = logging.getLogger(__name__)
+
+DEFAULT_LAST = 1000
+
+
+def encode(batch: dict) -> bytes:
+    """A ``SampleBatch`` as JSON, built directly (pydantic per message is too slow for 10,000 loops)."""
+    body = {"schema_version": 1} | {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in batch.items()}
+    return json.dumps(body).encode()
+
+
+class SamplePublisher:
+    def __init__(self, session, prefix: str, sharded: bool = True, keep_samples: int = DEFAULT_LAST):
+        import zenoh
+
+        self._zenoh = zenoh
+        self.session = session
+        self.prefix = keys.check_prefix(prefix)
+        self.sharded = sharded
+        self.history = SampleHistory(keep_samples) if keep_samples > 0 else None
+        self.queries = 0
+        self._publishers: dict[str, object] = {}
+        self._queryable = (
+            session.declare_queryable(keys.samples_any(prefix), self._on_query) if self.history is not None else None
+        )
+
+    def key(self, loop_id: str) -> str:
+        return keys.sharded_samples(self.prefix, loop_id) if self.sharded else keys.samples(self.prefix, loop_id)
+
+    def put(self, batch: dict) -> None:
+        """One batch of one loop: ``SampleBatch`` fields (``schema_version`` may be left out); arrays or lists."""
+        loop_id = batch["loop_id"]
+        pub = self._publishers.get(loop_id)
+        if pub is None:
+            pub = self._publishers[loop_id] = self.session.declare_publisher(
+                self.key(loop_id),
+                encoding=self._zenoh.Encoding.APPLICATION_JSON,
+                congestion_control=self._zenoh.CongestionControl.BLOCK,
+            )
+        pub.put(encode(batch))
+        if self.history is not None:
+            self.history.record(batch)
+
+    def _on_query(self, query) -> None:
+        try:
+            last = int(query.parameters.get("last", str(DEFAULT_LAST)))
+        except ValueError:
+            query.reply_err(b"last: a whole number of samples")
+            return
+        self.queries += 1
+        for key, payload in self.history.answer(self.prefix, str(query.key_expr), last, self.sharded):
+            query.reply(key, payload, encoding=self._zenoh.Encoding.APPLICATION_JSON)
+
+    def close(self) -> None:
+        for pub in self._publishers.values():
+            pub.undeclare()
+        self._publishers.clear()
+        if self._queryable is not None:
+            self._queryable.undeclare()
+            self._queryable = None
