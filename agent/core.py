@@ -1,8 +1,9 @@
 """The agent's pure core: messages in, windows due for a report out; no Zenoh, no clock of its own.
 
-Ownership: each loop's shard (``keys.shard_of``) belongs to the live agent that ranks first
-for it by rendezvous hashing.  A loop published on the spec's key ``{prefix}/loop/{id}/samples``
-reaches every agent, and the agent ranking second keeps its window too, so that it reports at
+Ownership: each loop's shard (``keys.shard_of``) belongs to one live agent, by rendezvous
+hashing with a cap on the shards an agent takes (``assign``: every agent gets its even share).
+A loop published on the spec's key ``{prefix}/loop/{id}/samples`` reaches every agent, and the agent
+that would inherit its shard keeps its window too, so that it reports at
 once when the owner's liveliness token disappears.  A loop published on its shard's key reaches
 only the agents subscribed to that shard, its owner: an agent that inherits the shard rebuilds
 the loop's window from the publisher's history (``ingest(..., history=True)``) and keeps the
@@ -64,6 +65,20 @@ class CoreSettings:
 def rank(agent_id: str, loop_id: str) -> int:
     digest = hashlib.blake2b(f"{agent_id}\0{loop_id}".encode(), digest_size=8).digest()
     return int.from_bytes(digest, "big")
+
+
+def assign(agents: tuple[str, ...], shards: int = keys.SHARDS) -> list[str]:
+    """The owner of every shard: rendezvous hashing, highest (agent, shard) rank first, each agent
+    taking at most its even share (ceil(shards / agents)).  Every agent computes the same from the
+    same membership; a shard moves only when its owner dies or an agent's share shrinks."""
+    cap = -(-shards // len(agents))
+    pairs = sorted(((rank(a, f"shard/{k}"), a, k) for a in agents for k in range(shards)), reverse=True)
+    owner: list[str | None] = [None] * shards
+    load: Counter[str] = Counter()
+    for _, a, k in pairs:
+        if owner[k] is None and load[a] < cap:
+            owner[k], load[a] = a, load[a] + 1
+    return owner  # type: ignore[return-value]
 
 
 @dataclass
@@ -133,12 +148,13 @@ class AgentCore:
         return True
 
     def shard_role(self, shard: int) -> int:
-        """0 if this agent owns the shard, 1 if it ranks second, ... among the live agents."""
-        r = self._roles.get(shard)
-        if r is None:
-            order = sorted(self.agents, key=lambda a: rank(a, f"shard/{shard}"), reverse=True)
-            r = self._roles[shard] = order.index(self.agent_id)
-        return r
+        """0 if this agent owns the shard, 1 if it would own it should its owner die, else 2."""
+        if not self._roles:
+            owners = assign(self.agents)
+            heirs = {a: assign(tuple(b for b in self.agents if b != a)) for a in self.agents if len(self.agents) > 1}
+            for k, a in enumerate(owners):
+                self._roles[k] = 0 if a == self.agent_id else 1 if a in heirs and heirs[a][k] == self.agent_id else 2
+        return self._roles[shard]
 
     def owned_shards(self) -> set[int]:
         return {k for k in range(keys.SHARDS) if self.shard_role(k) == 0}

@@ -100,7 +100,8 @@ class AgentService:
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
         self._size_queue: dict = {}  # loop_id -> its newest window waiting for the worker
-        self._shard_subs: dict[int, object] = {}
+        self._shard_subs: dict[str, object] = {}  # key expression -> subscriber
+        self._owned: set[int] = set()
         self.messages_received = 0
         self._cpu_s = {"ingest": 0.0, "publish": 0.0}  # the worker thread's own stages besides the pipeline's
         self._worker_cpu_s = 0.0  # the worker thread's CPU seconds as of its last pass
@@ -174,14 +175,17 @@ class AgentService:
         return self
 
     def _sync_shards(self) -> None:
-        """Subscribe to the shards this agent owns among the live agents, drop the others, and ask the
-        publishers for the recent samples of the shards it has just taken on."""
-        p, wanted = self.settings.prefix, self.core.owned_shards()
-        for k in [k for k in self._shard_subs if k not in wanted]:
-            self._shard_subs.pop(k).undeclare()
-        new = sorted(wanted - set(self._shard_subs))
-        for k in new:
-            self._shard_subs[k] = self.session.declare_subscriber(keys.shard_samples(p, k), self._on_sample)
+        """Subscribe to the shards this agent owns among the live agents (one subscription for all of
+        them when it is alone: Zenoh's cost per message grows with the subscriptions), drop the
+        others, and ask the publishers for the recent samples of the shards it has just taken on."""
+        p, owned = self.settings.prefix, self.core.owned_shards()
+        every = len(owned) == keys.SHARDS
+        wanted = {keys.shard_samples(p, "*")} if every else {keys.shard_samples(p, k) for k in owned}
+        for expr in [e for e in self._shard_subs if e not in wanted]:
+            self._shard_subs.pop(expr).undeclare()
+        for expr in sorted(wanted - set(self._shard_subs)):
+            self._shard_subs[expr] = self.session.declare_subscriber(expr, self._on_sample)
+        new, self._owned = sorted(owned - self._owned), owned
         for k in new:  # after subscribing: what comes live meanwhile is merged behind the history
             self.session.get(
                 f"{keys.shard_samples(p, k)}?last={self.settings.window_samples}",
@@ -190,7 +194,7 @@ class AgentService:
                 timeout=HISTORY_TIMEOUT_S,
             )
         if new:
-            log.info("agent %s: %d shards taken on, %d held", self.settings.agent_id, len(new), len(wanted))
+            log.info("agent %s: %d shards taken on, %d held", self.settings.agent_id, len(new), len(owned))
 
     def close(self) -> None:
         for d in [*reversed(self._declared), *self._shard_subs.values()]:
@@ -359,7 +363,7 @@ class AgentService:
             loops_sized=self.sizing.done if self.sizing is not None else 0,
             cpu_s=self.cpu_profile(),
             messages_received=self.messages_received,
-            shards_owned=len(self._shard_subs),
+            shards_owned=len(self._owned),
             windows_from_history=self.core.history_merged,
         )
 
