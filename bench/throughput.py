@@ -2,7 +2,8 @@
 
 The loops are simulated before the clock starts (so only the agent's cost is measured),
 each agent's window is filled in one burst (the clock starts once the agents have ingested
-it), then every loop gets ``speed`` samples a second in one message each, for ``seconds``.
+it), then every loop sends ``speed`` samples a second, ``batch_s`` seconds of them a message
+(staggered over the loops), for ``seconds``.
 Latency is measured outside the agent: from publishing a window's last sample to receiving its
 report.
 """
@@ -229,13 +230,18 @@ def run_throughput(
             tick.wait(0.5)
         fill_s = time.monotonic() - fill_started
         profile0 = _profile(health)
-        sent_at = np.zeros(n_live)
+        sent_at = np.zeros((loops, n_live))  # when each loop's live sample went out
         started = time.monotonic()
         cpu0 = [_proc_stats(p.pid)[0] for p in procs]
         children0 = [_children_cpu_s(p.pid) for p in procs]
         per_message = max(int(round(speed * batch_s)), 1)
+        # batches of several seconds go out staggered, as a bridge spreads its loops: a loop's batch
+        # boundaries are offset by its index, so every second a 1/per_message share of the loops sends
+        phase = np.arange(loops) % per_message
+        by_phase = [np.flatnonzero(phase == p) for p in range(per_message)]
+        pending = np.zeros(loops, dtype=int)  # each loop's first live sample not yet sent
         killed_at = None
-        for k in range(0, n_live, per_message):
+        for k in range(n_live):
             if kill_after_s is not None and killed_at is None and k / speed >= kill_after_s:
                 killed_stats = _proc_stats(procs[0].pid)
                 procs[0].kill()  # SIGKILL: no goodbye, only its liveliness token vanishes
@@ -245,11 +251,13 @@ def run_throughput(
             wait = due - time.monotonic()
             if wait > 0:
                 tick.wait(wait)
-            sl = slice(k, min(k + per_message, n_live))
-            seq, t0_s = live.seq + k, live.t0_s + k * ts
-            for j, loop_id in enumerate(ids):
-                out.put(batch(loop_id, seq, t0_s, ts, live.op[j, sl], live.pv[j, sl], live.sp[j, sl], process))
-            sent_at[sl] = time.monotonic()
+            senders = range(loops) if k == n_live - 1 else by_phase[(k + 1) % per_message]
+            for j in senders:
+                sl = slice(int(pending[j]), k + 1)
+                seq, t0_s = live.seq + sl.start, live.t0_s + sl.start * ts
+                out.put(batch(ids[j], seq, t0_s, ts, live.op[j, sl], live.pv[j, sl], live.sp[j, sl], process))
+                sent_at[j, sl] = time.monotonic()
+                pending[j] = k + 1
         publish_s = time.monotonic() - started
         tick.wait(3.0)  # let the last windows report
         tick.wait(2.5)  # and the agents' next health message carry their profile to the end
@@ -272,9 +280,10 @@ def run_throughput(
         out.close()
     with lock:
         rows = [r for r in received if r[1] is not None and r[1] >= live.t0_s]
+    index = {loop_id: j for j, loop_id in enumerate(ids)}
     at = [
-        (int(round((t_end - live.t0_s) / ts)), arr - sent_at[int(round((t_end - live.t0_s) / ts))])
-        for _, t_end, arr in rows
+        (int(round((t_end - live.t0_s) / ts)), arr - sent_at[index[lid], int(round((t_end - live.t0_s) / ts))])
+        for lid, t_end, arr in rows
         if 0 <= int(round((t_end - live.t0_s) / ts)) < n_live
     ]
     lat = np.array([x for _, x in at])
@@ -286,7 +295,7 @@ def run_throughput(
         for k_, v in h["rejected"].items():
             rejected[k_] = rejected.get(k_, 0) + v
     published = int(loops * (window + n_live) - sum(short))
-    messages_published = loops * (1 + -(-n_live // per_message))
+    messages_published = loops + sum(len(by_phase[(k + 1) % per_message]) for k in range(n_live - 1)) + loops
     # loop j is full after live sample short-1 (at the fill if short is 0), then due every report_every samples;
     # only reports of windows ending in the live phase count
     expected_reports = int(sum(n_live // report_every if s == 0 else (n_live - s) // report_every + 1 for s in short))
