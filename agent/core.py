@@ -69,15 +69,18 @@ def rank(agent_id: str, loop_id: str) -> int:
 
 def assign(agents: tuple[str, ...], shards: int = keys.SHARDS) -> list[str]:
     """The owner of every shard: rendezvous hashing, highest (agent, shard) rank first, each agent
-    taking at most its even share (ceil(shards / agents)).  Every agent computes the same from the
-    same membership; a shard moves only when its owner dies or an agent's share shrinks."""
-    cap = -(-shards // len(agents))
+    taking its even share (``shards // agents``, and one more for as many agents as the remainder
+    needs).  Every agent computes the same from the same membership."""
+    base, extra = divmod(shards, len(agents))
     pairs = sorted(((rank(a, f"shard/{k}"), a, k) for a in agents for k in range(shards)), reverse=True)
     owner: list[str | None] = [None] * shards
     load: Counter[str] = Counter()
     for _, a, k in pairs:
-        if owner[k] is None and load[a] < cap:
+        if owner[k] is None and load[a] < base:
             owner[k], load[a] = a, load[a] + 1
+    for _, a, k in pairs:  # the remainder: one more shard each for the agents that rank highest for it
+        if owner[k] is None and load[a] == base and extra > 0:
+            owner[k], load[a], extra = a, load[a] + 1, extra - 1
     return owner  # type: ignore[return-value]
 
 

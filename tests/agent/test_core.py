@@ -292,3 +292,98 @@ def test_a_replica_taking_over_late_does_not_report_a_window_the_dead_owner_had_
     ((later, _),) = b.due()  # the next window is the replica's
     assert later.t_end_s == window.t_end_s + 20
     b.seen_report(f"stiction/demo/loop/{loop}/report", b"not json")  # ignored, never raised
+
+
+def _reference_owner(agents, shard):
+    """Plain rendezvous hashing, no cap: the agent ranking first for the shard."""
+    from agent.core import rank
+
+    return max(agents, key=lambda a: rank(a, f"shard/{shard}"))
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 32])
+def test_shards_are_given_out_evenly_and_every_agent_computes_the_same(n):
+    from agent.core import assign
+    from schemas import keys
+
+    agents = tuple(f"agent-{i}" for i in range(n))
+    owners = assign(agents)
+    assert len(owners) == keys.SHARDS and set(owners) <= set(agents)
+    counts = [owners.count(a) for a in agents]
+    assert max(counts) - min(counts) <= 1, counts  # even shares, as near as the number allows
+    assert assign(tuple(reversed(agents))) == owners
+    cores = [AgentCore(a) for a in agents]
+    for core in cores:
+        core.set_agents(set(agents))
+    for k in range(keys.SHARDS):  # each shard owned by exactly one agent, and it is assign's
+        assert [c.agent_id for c in cores if c.shard_role(k) == 0] == [owners[k]]
+    # rendezvous still decides: most shards go to the agent that ranks first for them
+    agree = sum(owners[k] == _reference_owner(agents, k) for k in range(keys.SHARDS))
+    assert agree >= keys.SHARDS // 2
+
+
+def test_the_heir_of_a_shard_owns_it_once_its_owner_is_gone():
+    from agent.core import assign
+    from schemas import keys
+
+    agents = ("a", "b", "c")
+    cores = {x: AgentCore(x) for x in agents}
+    for core in cores.values():
+        core.set_agents(set(agents))
+    owners = assign(agents)
+    for k in range(keys.SHARDS):
+        heirs = [x for x, c in cores.items() if c.shard_role(k) == 1]
+        assert len(heirs) == 1 and heirs[0] != owners[k]
+        survivors = tuple(x for x in agents if x != owners[k])
+        assert assign(survivors)[k] == heirs[0]
+
+
+def _sharded_key(loop_id):
+    from schemas import keys
+
+    return keys.sharded_samples("stiction/demo", loop_id)
+
+
+def test_an_inherited_loops_window_is_its_history_then_what_came_live_and_keeps_the_schedule():
+    core = _core()
+    key = _sharded_key("L1")
+    # the dead owner reported the window ending at t=79; live samples 90.. came before the history
+    core.seen_report("stiction/demo/loop/L1/report", json.dumps({"t_end_s": 79.0}).encode())
+    core.ingest(key, _payload(90, n=5), JSON, 1.0)
+    core.ingest(key, _payload(0, n=92), JSON, 2.0, history=True)  # the publisher's last 92 samples
+    op, _ = core.loops["L1"].window.get()
+    np.testing.assert_array_equal(op, np.arange(0, 95))  # history in front, the live samples behind
+    assert core.history_merged == 1
+    assert core.due() == []  # 15 samples since the last report: not due yet (every 20)
+    core.ingest(key, _payload(95, n=4), JSON, 3.0)
+    assert core.due() == []
+    core.ingest(key, _payload(99, n=1), JSON, 4.0)  # the 20th sample after t=79
+    (window, _), = core.due()
+    assert window.t_end_s == 99.0 and len(window.op) == 100
+
+
+def test_a_history_that_does_not_reach_the_live_window_is_refused_and_the_window_goes_on():
+    core = _core()
+    key = _sharded_key("L1")
+    core.ingest(key, _payload(50, n=10), JSON, 1.0)
+    core.ingest(key, _payload(0, n=30), JSON, 2.0, history=True)
+    assert core.rejected["history_gap"] == 1
+    op, _ = core.loops["L1"].window.get()
+    np.testing.assert_array_equal(op, np.arange(50, 60))
+
+
+def test_a_sharded_loop_is_held_by_its_owner_only_and_dropped_when_its_shard_moves():
+    from schemas import keys
+
+    loops = [f"L{i}" for i in range(60)]
+    a = AgentCore("a", CoreSettings(window_samples=100, report_every_samples=20))
+    a.set_agents({"a"})
+    for lid in loops:
+        a.ingest(_sharded_key(lid), _payload(0, loop_id=lid), JSON, 0.0)
+    assert len(a.loops) == len(loops)
+    a.set_agents({"a", "b"})  # b joins: a keeps only the loops of its own shards
+    assert set(a.loops) == {lid for lid in loops if a.owns(lid)}
+    assert 0 < len(a.loops) < len(loops)
+    wrong = keys.samples("stiction/demo", "L1") + f"/{(keys.shard_of('L1') + 1) % keys.SHARDS}"
+    a.ingest(wrong, _payload(10), JSON, 1.0)
+    assert a.rejected["wrong_shard"] == 1

@@ -1,5 +1,8 @@
 """Two agent processes share the loops; when one dies the other reports its loops (Zenoh liveliness).
 
+The simulator puts each loop on its shard's key: each agent receives and holds only its own shards'
+loops, and the survivor rebuilds the dead agent's loops from the simulator's history.
+
 Everything runs as the user would: ``stiction sim`` and two ``stiction agent`` processes on
 loopback, and a plain Zenoh subscriber on ``{prefix}/loop/*/report``.
 """
@@ -11,6 +14,7 @@ import time
 import zenoh
 
 from schemas import keys
+from schemas.messages import AgentHealth
 from schemas.report import StictionReport
 from stiction import zenoh_config
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
@@ -32,8 +36,15 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
         with lock:
             seen.setdefault(r.loop_id, []).append((r.agent_id, time.monotonic()))
 
+    health: dict[str, AgentHealth] = {}
+
+    def on_health(sample):
+        h = AgentHealth.model_validate_json(sample.payload.to_bytes())
+        health[h.agent_id] = h
+
     with zenoh.open(zenoh_config.build([endpoint])) as session:
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
+        hsub = session.declare_subscriber(f"{PREFIX}/agent/*/health", on_health)
         try:
             for name in ("agent-a", "agent-b"):
                 procs[name] = start_cli(
@@ -70,6 +81,10 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
             assert all(len(o) == 1 for o in owners.values()), owners
             of_a = [loop for loop, o in owners.items() if o == {"agent-a"}]
             assert 0 < len(of_a) < LOOPS  # both agents have work
+            # each loop reaches its owner only: no agent holds a copy of the other's loops
+            wait_until(lambda: sum(h.loops_seen for h in health.values()) == LOOPS, 10, "health messages")
+            assert {a: h.loops_seen for a, h in health.items()} == {"agent-a": len(of_a), "agent-b": LOOPS - len(of_a)}
+            assert sorted(h.shards_owned for h in health.values()) == [keys.SHARDS // 2] * 2
 
             procs["agent-a"].kill()  # no goodbye: only its liveliness token vanishes
             killed = time.monotonic()
@@ -79,6 +94,7 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
                 "agent-b to report agent-a's loops",
             )
             assert not any(a == "agent-a" and t > killed + 1.0 for v in seen.values() for a, t in v)
+            wait_until(lambda: health["agent-b"].windows_from_history >= len(of_a), 10, "the windows from history")
 
             for name in ("agent-b", "sim"):
                 procs[name].send_signal(signal.SIGTERM)
@@ -86,4 +102,5 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
                 assert procs[name].wait(timeout=20) == 0, procs[name].stderr.read()
         finally:
             sub.undeclare()
+            hsub.undeclare()
             kill_left_over(procs)
