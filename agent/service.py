@@ -111,7 +111,8 @@ class AgentService:
         self._inbox.append(
             (str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), time.monotonic(), False)
         )
-        self._wake.set()
+        if not self._wake.is_set():  # setting it takes a lock: once per wake-up, not per message
+            self._wake.set()
 
     def _on_history(self, reply) -> None:
         """A publisher's recent samples of one loop of a shard this agent has just taken on."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import re
 
@@ -34,6 +35,7 @@ def samples(prefix: str, loop_id: str) -> str:
     return f"{prefix}/loop/{check_id(loop_id)}/samples"
 
 
+@functools.lru_cache(maxsize=1 << 17)  # asked for every message an agent receives
 def shard_of(loop_id: str) -> int:
     return int.from_bytes(hashlib.blake2b(loop_id.encode(), digest_size=4).digest(), "big") % SHARDS
 

@@ -60,6 +60,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--batch-s", type=float, default=1.0, metavar="S", help="seconds of stream per message (default 1: one sample)"
     )
     t.add_argument("--unsharded", action="store_true", help="publish on the spec's key, which every agent receives")
+    t.add_argument(
+        "--find-limit",
+        action="store_true",
+        help="from --loops up by a quarter a run until a goal is missed (p99 < 1 s after the first interval, "
+        "no sample lost, every report, < 0.6 of a core and < 500 MB an agent): the largest loop count that holds",
+    )
     t.add_argument("--json", action="store_true")
     b = sub.add_parser("bridge", help="OPC UA plant server -> bridge -> subscriber: samples lost, latency, CPU")
     b.add_argument("--loops", type=int, default=1000)
@@ -103,7 +109,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _machine() -> dict:
-    return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
+    cpu = _cpu_model()
+    return {"python": platform.python_version(), "cpus": os.cpu_count(), "cpu": cpu, "machine": platform.machine()}
+
+
+def _cpu_model() -> str:
+    """The CPU's model name (machines of one kind differ up to 2x: every figure names it)."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return platform.processor() or "unknown"
+    info = dict(line.split(":", 1) for line in lines if ":" in line)
+    name = {k.strip(): v.strip() for k, v in info.items()}
+    return f"{name.get('model name', 'unknown')} (family {name.get('cpu family', '?')} model {name.get('model', '?')})"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -311,21 +329,25 @@ def _accuracy(args) -> None:
 
 
 def _throughput(args) -> None:
-    from bench.throughput import run_throughput
+    from bench.throughput import missed_goals, run_throughput
 
-    f = run_throughput(
-        args.loops,
-        args.seconds,
-        args.speed,
-        report_every=args.report_every,
-        agents=args.agents,
-        kill_after_s=args.kill_after,
-        mix=args.mix,
-        size_every_min=args.size_every,
-        batch_s=args.batch_s,
-        sharded=not args.unsharded,
-    )
-    f |= {"host": _machine()}
+    def run(loops: int) -> dict:
+        return run_throughput(
+            loops,
+            args.seconds,
+            args.speed,
+            report_every=args.report_every,
+            agents=args.agents,
+            kill_after_s=args.kill_after,
+            mix=args.mix,
+            size_every_min=args.size_every,
+            batch_s=args.batch_s,
+            sharded=not args.unsharded,
+        ) | {"host": _machine()}
+
+    if args.find_limit:
+        return _find_limit(args, run, missed_goals)
+    f = run(args.loops)
     if args.json:
         _print_json(f)
         return
@@ -369,8 +391,37 @@ def _throughput(args) -> None:
         f"peak RSS {f['agent_peak_rss_mb']:.0f} MB; sizing worker "
         f"{', '.join(f'{c:.0%}' for c in f['sizing_worker_cpu_share'])} of a core, {f['loops_sized']} loops sized"
     )
+    print(f"  host: {f['host']['cpu']}, {f['host']['cpus']} cores")
     stages = f["agent_cpu_by_stage"]
     print("  agent CPU by stage (cores): " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
+
+
+def _find_limit(args, run, missed_goals) -> None:
+    """Loop counts up by a quarter from ``--loops`` until a run misses a goal."""
+    held, runs, loops = None, [], args.loops
+    while True:
+        f = run(loops)
+        missed = missed_goals(f)
+        runs.append({"loops": loops, "missed": missed, "figures": f})
+        if not args.json:
+            p99 = f["latency_p99_after_first_interval_s"]
+            print(
+                f"{loops} loops: p99 {'-' if p99 is None else f'{p99:.2f}'} s, "
+                f"{max(f['agent_cpu_share']):.2f} of a core, {f['agent_peak_rss_mb']:.0f} MB, "
+                f"{f['samples_lost']} samples lost: " + ("holds" if not missed else "misses " + ", ".join(missed)),
+                flush=True,
+            )
+        if missed:
+            break
+        held, loops = loops, int(round(loops * 1.25 / 500) * 500) or loops + 500
+    if args.json:
+        _print_json({"largest_loops_holding_the_goals": held, "runs": runs, "host": _machine()})
+        return
+    print(
+        f"largest loop count that holds the goals here: {held if held is not None else f'none from {args.loops}'} "
+        f"({args.agents} agent(s), {args.mix}, {args.batch_s:g} s a message, {args.seconds:g} s live; "
+        f"{_cpu_model()}, {os.cpu_count()} cores)"
+    )
 
 
 def _bridge(args) -> None:
