@@ -102,6 +102,8 @@ class AgentService:
         self._size_queue: dict = {}  # loop_id -> its newest window waiting for the worker
         self._shard_subs: dict[str, object] = {}  # key expression -> subscriber
         self._owned: set[int] = set()
+        self._history_asked_at = -float("inf")
+        self._history_wanted: list[int] = []  # shards taken on whose recent samples are still to be asked for
         self.messages_received = 0
         self._cpu_s = {"ingest": 0.0, "publish": 0.0}  # the worker thread's own stages besides the pipeline's
         self._worker_cpu_s = 0.0  # the worker thread's CPU seconds as of its last pass
@@ -175,6 +177,21 @@ class AgentService:
         log.info("agent %s listening on %s", self.settings.agent_id, keys.all_samples(p))
         return self
 
+    def _ask_history(self) -> None:
+        """Ask the publishers for the recent samples of one shard taken on, once the inbox is short and
+        the last shard's answer has had time to come."""
+        now = time.monotonic()
+        if not self._history_wanted or len(self._inbox) > INGEST_PER_PASS or now < self._history_asked_at + 0.2:
+            return
+        self._history_asked_at = now
+        k = self._history_wanted.pop(0)
+        self.session.get(
+            f"{keys.shard_samples(self.settings.prefix, k)}?last={self.settings.window_samples}",
+            self._on_history,
+            consolidation=self._zenoh.ConsolidationMode.NONE,
+            timeout=HISTORY_TIMEOUT_S,
+        )
+
     def _sync_shards(self) -> None:
         """Subscribe to the shards this agent owns among the live agents (one subscription for all of
         them when it is alone: Zenoh's cost per message grows with the subscriptions), drop the
@@ -187,13 +204,10 @@ class AgentService:
         for expr in sorted(wanted - set(self._shard_subs)):
             self._shard_subs[expr] = self.session.declare_subscriber(expr, self._on_sample)
         new, self._owned = sorted(owned - self._owned), owned
-        for k in new:  # after subscribing: what comes live meanwhile is merged behind the history
-            self.session.get(
-                f"{keys.shard_samples(p, k)}?last={self.settings.window_samples}",
-                self._on_history,
-                consolidation=self._zenoh.ConsolidationMode.NONE,
-                timeout=HISTORY_TIMEOUT_S,
-            )
+        # asked for after subscribing (what comes live meanwhile is merged behind the history), one
+        # shard at a time as the inbox empties (``_ask_history``): a dead agent's thousands of windows
+        # do not land at once
+        self._history_wanted = [k for k in self._history_wanted if k in owned] + new
         if new:
             log.info("agent %s: %d shards taken on, %d held", self.settings.agent_id, len(new), len(owned))
 
@@ -224,6 +238,7 @@ class AgentService:
         self._collect_sizings()
         while self._reports_seen:  # before any window is due: a report made elsewhere is never made twice
             self.core.seen_report(*self._reports_seen.popleft())
+        self._ask_history()
         clock = time.thread_time()
         n = 0
         limit = INGEST_PER_PASS if len(self._inbox) <= BACKLOG_MESSAGES else len(self._inbox)
