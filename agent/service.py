@@ -199,10 +199,10 @@ class AgentService:
         p, owned = self.settings.prefix, self.core.owned_shards()
         every = len(owned) == keys.SHARDS
         wanted = {keys.shard_samples(p, "*")} if every else {keys.shard_samples(p, k) for k in owned}
+        for expr in sorted(wanted - set(self._shard_subs)):  # the new first: no sample falls between the two
+            self._shard_subs[expr] = self.session.declare_subscriber(expr, self._on_sample)
         for expr in [e for e in self._shard_subs if e not in wanted]:
             self._shard_subs.pop(expr).undeclare()
-        for expr in sorted(wanted - set(self._shard_subs)):
-            self._shard_subs[expr] = self.session.declare_subscriber(expr, self._on_sample)
         new, self._owned = sorted(owned - self._owned), owned
         # asked for after subscribing (what comes live meanwhile is merged behind the history), one
         # shard at a time as the inbox empties (``_ask_history``): a dead agent's thousands of windows

@@ -2,7 +2,7 @@
 
 Three processes on loopback, as in a plant: ``stiction plant`` (the OPC UA server, writing a
 sample of every loop each second), ``stiction bridge opcua`` and this process counting what
-arrives on ``{prefix}/loop/*/samples``.  Measured over the steady phase: samples per loop
+arrives on ``{prefix}/loop/*/samples/**``.  Measured over the steady phase: samples per loop
 against the grid points that passed (lost = missing seq), latency from a sample's grid time to
 its arrival, the bridge's CPU (cores) and peak memory.  Then the server is stopped and started
 again: seconds from the new server being up to the bridge's first sample of every loop.
@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.throughput import _proc_stats
+from schemas import keys
 from stiction import zenoh_config
 
 PREFIX = "bench/bridge"
@@ -66,7 +67,7 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
                       "--status-every", "5"]  # fmt: skip
         plant_log = open(Path(tmp) / "plant.log", "w")  # noqa: SIM115 - closed with the folder below
         procs = {"plant": _start(*plant_args, stdout=plant_log)}
-        sub = session.declare_subscriber(f"{PREFIX}/loop/*/samples", on_samples)
+        sub = session.declare_subscriber(keys.samples_any(PREFIX), on_samples)
         health: list[dict] = []
         hsub = session.declare_subscriber(
             f"{PREFIX}/bridge/*/health", lambda s: health.append(json.loads(s.payload.to_bytes()))

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from schemas import keys
 from stiction import zenoh_config
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
@@ -75,7 +76,7 @@ def test_the_bridge_reads_a_secure_server_with_its_certificate_and_is_refused_wi
         err = [x for x in insecure.stderr.splitlines() if x.startswith("stiction bridge: error:")]
         assert len(err) == 1 and "refused the bridge" in err[0], insecure.stderr
         with zenoh.open(zenoh_config.build([endpoint])) as session:
-            sub = session.declare_subscriber(f"{PREFIX}/loop/*/samples", on_samples)
+            sub = session.declare_subscriber(keys.samples_any(PREFIX), on_samples)
             security = f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'client-cert.der'},{tmp_path / 'client-key.pem'}"
             procs["bridge"] = start_cli("bridge", "opcua", "--loop-file", str(loop_file), "--security", security,
                                      "--connect", endpoint, "--prefix", PREFIX)  # fmt: skip

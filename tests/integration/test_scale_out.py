@@ -94,7 +94,6 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
                 "agent-b to report agent-a's loops",
             )
             assert not any(a == "agent-a" and t > killed + 1.0 for v in seen.values() for a, t in v)
-            wait_until(lambda: health["agent-b"].windows_from_history >= len(of_a), 10, "the windows from history")
 
             for name in ("agent-b", "sim"):
                 procs[name].send_signal(signal.SIGTERM)

@@ -1,0 +1,49 @@
+"""The publishers' Zenoh edge: samples on the loops' shard keys, and their recent history on ``get``."""
+
+import threading
+
+import numpy as np
+import zenoh
+
+from bridge.publish import SamplePublisher
+from schemas import keys
+from schemas.messages import SampleBatch
+from stiction import zenoh_config
+from tests.integration.conftest import wait_until
+
+PREFIX = "test/history"
+
+
+def test_an_agent_subscribed_to_one_shard_gets_only_its_loops_and_their_history_on_get():
+    endpoint = zenoh_config.free_loopback_endpoint()
+    loops = [f"FIC{i}" for i in range(30)]
+    shard = keys.shard_of(loops[0])
+    mine = {lid for lid in loops if keys.shard_of(lid) == shard}
+    got: list[str] = []
+    lock = threading.Lock()
+
+    def on_sample(sample):
+        with lock:
+            got.append(SampleBatch.model_validate_json(sample.payload.to_bytes()).loop_id)
+
+    with (
+        zenoh.open(zenoh_config.build([endpoint])) as pub_s,
+        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as sub_s,
+    ):
+        sub = sub_s.declare_subscriber(keys.shard_samples(PREFIX, shard), on_sample)
+        out = SamplePublisher(pub_s, PREFIX, keep_samples=40)
+        threading.Event().wait(0.5)  # the subscription reaches the publisher's session
+        for seq in range(0, 50, 10):
+            for lid in loops:
+                op = np.arange(seq, seq + 10, dtype=float)
+                out.put({"loop_id": lid, "seq": seq, "t0_s": float(seq), "ts_s": 1.0, "op": op, "pv": op / 2})
+        wait_until(lambda: len(got) >= 5 * len(mine), 10, "the shard's samples")
+        assert set(got) == mine  # no other shard's loop reached this subscriber
+        replies = [r.ok for r in sub_s.get(f"{keys.shard_samples(PREFIX, shard)}?last=25", timeout=5) if r.ok]
+        batches = {SampleBatch.model_validate_json(s.payload.to_bytes()).loop_id: s for s in replies}
+        assert set(batches) == mine
+        b = SampleBatch.model_validate_json(batches[loops[0]].payload.to_bytes())
+        assert b.seq == 25 and b.op == list(np.arange(25, 50, dtype=float)) and b.pv == [x / 2 for x in b.op]
+        assert str(batches[loops[0]].key_expr) == keys.sharded_samples(PREFIX, loops[0])
+        sub.undeclare()
+        out.close()
