@@ -19,6 +19,9 @@ from schemas import keys
 from schemas.messages import MAX_BATCH_SAMPLES
 
 COLUMNS = ("op", "pv", "sp", "mv", "mode")
+DECIMALS = 6
+"""Decimals of the history's values (% of span): finer than the float32 the agent holds them in
+(about 4e-6 at 50 %), and the answer is built in two thirds of the time, in half the bytes."""
 
 
 @dataclass
@@ -63,7 +66,7 @@ class _Ring:
             "seq": seq,
             "t0_s": self.t_end_s - (m - 1) * self.ts_s,
             "ts_s": self.ts_s,
-            **{c: ring[idx].tolist() for c, ring in self.columns.items()},
+            **{c: np.round(ring[idx], DECIMALS).tolist() for c, ring in self.columns.items()},
             "process": self.process,
         }
         return json.dumps(body).encode()
