@@ -89,7 +89,7 @@ def stuck_travel(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None) -
     """The largest OP travel (% of span) over which PV stood still in one window, by either
     stuck-valve test (as ``evidence``: a stuck ramp, or a setpoint step's still phase); 0 where
     neither saw one.  A valve that stood still while OP moved that far has a band S of about that
-    at least (``ident.sizing.stuck_travel_contradicts``)."""
+    at least (``ident.trust.stuck_travel_contradicts``)."""
     pv, op = np.asarray(pv, float), np.asarray(op, float)
     edges = _edges(np.stack([pv, op]))
     travel = _stuck_ramp(edges[0], pv, edges[1])[1]

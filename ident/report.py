@@ -12,7 +12,7 @@ from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
 from ident.fit import Friction, ValveFit
 from ident.process import NOMINAL
 from ident.record import Record
-from ident.sizing import stuck_travel_contradicts, with_model_error
+from ident.trust import stuck_travel_contradicts, with_model_error
 from schemas import diagnosis as schema
 
 

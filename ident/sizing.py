@@ -7,19 +7,19 @@ errors are the fit's, conditional on the model being right; on simulated plant-l
 (``sim.plant_loops``: processes, tunings and sampling the fit does not know) the model is only
 close, and the errors are larger than the fit says.  So each standard error of a diagnosis
 report is the fit's combined with a model error proportional to S, measured on those loops
-(``with_model_error``, applied by ``ident.report.diagnosis_report``); and where the fit
+(``ident.trust.with_model_error``, applied by ``ident.report.diagnosis_report``); and where the fit
 cannot separate S from J (the whole band read as jump: fd at its bound of zero, where a few
 wrong slips move S by a factor of several) or reads fewer than two slips, nothing is reported
 and the reason is.  Nor where the band read is less than half the OP travel over which PV
-stood still in the record (``stuck_travel_contradicts``, applied by
+stood still in the record (``ident.trust.stuck_travel_contradicts``, applied by
 ``ident.report.diagnosis_report``): a valve that stayed put while OP moved
 that far has a band of about that at least, and a fit that says otherwise describes another loop.
 
 Measured on simulated plant-like sticky loops called sticky by the detector (``stiction bench
 sizing`` prints the same on any seed): seeds 2026 and 2027, 60 loops per class, 66 called
 sticky, 36 read.  With the fit's own errors the truth was inside S +- 2 se in 28 % of them;
-with ``MODEL_ERROR_S`` 0.20 in 94 % and 100 %; J +- 2 se (J trades off against the unknown
-process gain) 94 % and 84 % with ``MODEL_ERROR_J`` 0.30.
+with ``ident.trust.MODEL_ERROR_S`` 0.20 in 94 % and 100 %; J +- 2 se (J trades off against the unknown
+process gain) 94 % and 84 % with ``ident.trust.MODEL_ERROR_J`` 0.30.
 """
 
 from __future__ import annotations
@@ -31,20 +31,6 @@ import numpy as np
 
 from schemas.diagnosis import Process
 from sim.valve import friction_pct, friction_se_pct
-
-MODEL_ERROR_S = 0.20
-"""Standard error of S from the model's mismatch, as a share of S (seeds 2026, 2027 of ``sim.plant_loops``)."""
-MODEL_ERROR_J = 0.30
-"""Standard error of J from the model's mismatch, as a share of S."""
-STUCK_TRAVEL_SHARE = 0.5
-"""S + 2 se must reach this share of the stuck OP travel (``detect.features``).  A valve stuck
-while OP moves by d has S >= d (it moves once OP is S past the stuck position on a reversal, J
-in the same direction, J <= S); the half allows for PV's noise hiding a small move.  On the 40
-sticky loops of seed 2030 called sticky, the travel was at most 1.3 times the true S and every
-band read passed; on a measured flow loop (OP up 0.42 % in steps while PV stood still, then a
-slip) it withholds S 0.03 +- 0.01 % from a model whose PV missed the record entirely.  The
-travel over a stuck setpoint step's still phase (``detect.setpoint``) counts too: on 52 simulated
-sticky loops with such a step (seeds 2030-2032) it was 0.41-1.89 times the true S."""
 
 
 @dataclass(frozen=True)
@@ -98,36 +84,6 @@ def from_report(report) -> Sizing:
         )
         return Sizing(nan, nan, nan, nan, process, slips, why)
     return Sizing(s, j, s_se, j_se, process, slips)
-
-
-def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -> str | None:
-    """Why a band is withheld where S + 2 se is below ``STUCK_TRAVEL_SHARE`` of the OP travel over
-    which PV stood still (``travel_pct``, % of span, ``detect.features.stuck_travel``; 0 where
-    none was seen), else None."""
-    if not (travel_pct > 0 and math.isfinite(s_pct)) or s_pct + 2 * s_se_pct >= STUCK_TRAVEL_SHARE * travel_pct:
-        return None
-    return (
-        f"the fit reads S {s_pct:.2g} +- {s_se_pct:.2g} % of span, but OP moved {travel_pct:.2g} % in a straight "
-        "line while PV stood still, and a valve that stays put through that has a band of about that at least: "
-        "the identified model does not describe this loop, its friction numbers are withheld"
-    )
-
-
-def with_model_error(f):
-    """``ident.fit.Friction`` with the model error added to its standard errors (in quadrature):
-    S's by ``MODEL_ERROR_S`` S, J's by ``MODEL_ERROR_J`` S, and fs's and fd's by what those two
-    make of them (``sim.valve.friction_se_pct``)."""
-    if not math.isfinite(f.s_pct):
-        return f
-    model_s, model_j = MODEL_ERROR_S * f.s_pct, MODEL_ERROR_J * f.s_pct
-    model_fs, model_fd = (float(v) for v in friction_se_pct(model_s, model_j))
-    return replace(
-        f,
-        s_se_pct=math.hypot(f.s_se_pct, model_s),
-        j_se_pct=math.hypot(f.j_se_pct, model_j),
-        fs_se_pct=math.hypot(f.fs_se_pct, model_fs),
-        fd_se_pct=math.hypot(f.fd_se_pct, model_fd),
-    )
 
 
 def _why_not(report) -> str:

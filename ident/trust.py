@@ -1,0 +1,58 @@
+"""What a fitted valve's friction numbers are worth: the model error added to the fit's own standard
+errors, and the stuck-travel check that withholds a band the record contradicts.
+
+Below both ``ident.report`` (which applies them to every diagnosis) and ``ident.sizing`` (which
+reads a diagnosis's S and J), so that neither imports the other; the figures behind the
+constants are in ``ident.sizing``'s description.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from sim.valve import friction_se_pct
+
+MODEL_ERROR_S = 0.20
+"""Standard error of S from the model's mismatch, as a share of S (seeds 2026, 2027 of ``sim.plant_loops``)."""
+MODEL_ERROR_J = 0.30
+"""Standard error of J from the model's mismatch, as a share of S."""
+STUCK_TRAVEL_SHARE = 0.5
+"""S + 2 se must reach this share of the stuck OP travel (``detect.features``).  A valve stuck
+while OP moves by d has S >= d (it moves once OP is S past the stuck position on a reversal, J
+in the same direction, J <= S); the half allows for PV's noise hiding a small move.  On the 40
+sticky loops of seed 2030 called sticky, the travel was at most 1.3 times the true S and every
+band read passed; on a measured flow loop (OP up 0.42 % in steps while PV stood still, then a
+slip) it withholds S 0.03 +- 0.01 % from a model whose PV missed the record entirely.  The
+travel over a stuck setpoint step's still phase (``detect.setpoint``) counts too: on 52 simulated
+sticky loops with such a step (seeds 2030-2032) it was 0.41-1.89 times the true S."""
+
+
+def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -> str | None:
+    """Why a band is withheld where S + 2 se is below ``STUCK_TRAVEL_SHARE`` of the OP travel over
+    which PV stood still (``travel_pct``, % of span, ``detect.features.stuck_travel``; 0 where
+    none was seen), else None."""
+    if not (travel_pct > 0 and math.isfinite(s_pct)) or s_pct + 2 * s_se_pct >= STUCK_TRAVEL_SHARE * travel_pct:
+        return None
+    return (
+        f"the fit reads S {s_pct:.2g} +- {s_se_pct:.2g} % of span, but OP moved {travel_pct:.2g} % in a straight "
+        "line while PV stood still, and a valve that stays put through that has a band of about that at least: "
+        "the identified model does not describe this loop, its friction numbers are withheld"
+    )
+
+
+def with_model_error(f):
+    """``ident.fit.Friction`` with the model error added to its standard errors (in quadrature):
+    S's by ``MODEL_ERROR_S`` S, J's by ``MODEL_ERROR_J`` S, and fs's and fd's by what those two
+    make of them (``sim.valve.friction_se_pct``)."""
+    if not math.isfinite(f.s_pct):
+        return f
+    model_s, model_j = MODEL_ERROR_S * f.s_pct, MODEL_ERROR_J * f.s_pct
+    model_fs, model_fd = (float(v) for v in friction_se_pct(model_s, model_j))
+    return replace(
+        f,
+        s_se_pct=math.hypot(f.s_se_pct, model_s),
+        j_se_pct=math.hypot(f.j_se_pct, model_j),
+        fs_se_pct=math.hypot(f.fs_se_pct, model_fs),
+        fd_se_pct=math.hypot(f.fd_se_pct, model_fd),
+    )
