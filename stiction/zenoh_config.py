@@ -39,6 +39,11 @@ def add_publisher_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+def samples_keys(args) -> str:
+    """Where the publisher flags put samples, for a start-up line."""
+    return keys.all_samples(args.prefix) if args.unsharded else keys.shard_samples(args.prefix, "{shard}")
+
+
 def publisher(args, session):
     """The ``SamplePublisher`` the publisher flags ask for."""
     from bridge.publish import SamplePublisher

@@ -96,7 +96,8 @@ def run(args: argparse.Namespace) -> int:
         every = Every(args.status_every)
         service.on_health = lambda h: print(agent_line(h), flush=True) if every() else None
         print(
-            f"agent {agent_id}: listening on {keys.all_samples(args.prefix)}; a new loop's first report after "
+            f"agent {agent_id}: listening on {keys.all_samples(args.prefix)} and its shards' "
+            f"{keys.shard_samples(args.prefix, '{shard}')}; a new loop's first report after "
             f"{args.first_window} samples (partial), then every {args.report_every} samples (friction read afresh "
             f"every {args.estimate_every} reports of a sticky loop); "
             f"a status line every {args.status_every:g} s",

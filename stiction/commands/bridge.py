@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
         bridge = OpcuaBridge(loop_file, settings, out.put, on_health)
         print(
             f"bridge {settings.bridge_id}: {len(loop_file.loops)} loops from {settings.endpoint} "
-            f"every {loop_file.sample_time_s:g} s to {keys.all_samples(args.prefix)}",
+            f"every {loop_file.sample_time_s:g} s to {zenoh_config.samples_keys(args)}",
             flush=True,
         )
 

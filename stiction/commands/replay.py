@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
         args.listen = [DEFAULT_ENDPOINT]
     schedule = Schedule(tracks, args.speed)
     print(
-        f"replay: {len(tracks)} loops to {keys.all_samples(args.prefix)} at {args.speed:g}x, "
+        f"replay: {len(tracks)} loops to {zenoh_config.samples_keys(args)} at {args.speed:g}x, "
         f"{schedule.duration_s:.0f} s of wall clock" + (f"; {len(failed)} file(s) skipped" if failed else ""),
         flush=True,
     )

@@ -8,7 +8,6 @@ import signal
 import threading
 import time
 
-from schemas import keys
 from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.status import Every
@@ -85,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
 
     with zenoh_config.open_from_args(args) as session:
         print(
-            f"sim: {args.loops} loops on {keys.all_samples(args.prefix)} at {args.speed:g}x real time, "
+            f"sim: {args.loops} loops on {zenoh_config.samples_keys(args)} at {args.speed:g}x real time, "
             f"{', '.join(args.listen or args.connect or [str(args.config)])}; "
             f"a status line every {args.status_every:g} s",
             flush=True,
