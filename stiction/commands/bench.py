@@ -125,50 +125,39 @@ def _cpu_model() -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.bench == "sim":
-        from bench.sim_speed import bench_agreement, bench_sim
-
-        figures = bench_sim(reference_loops=args.reference_loops, repeats=args.repeats) | {"host": _machine()}
-        if not args.no_agreement:
-            figures["agreement"] = bench_agreement()
-        if args.json:
-            _print_json(figures)
-        else:
-            print(f"grid: {figures['loops']} loops x {figures['duration_s']:.0f} s, physical valve, one core")
-            print(
-                f"  fast simulator     {figures['grid_s']:8.2f} s  ({figures['grid_loops_per_s']:.0f} loops/s,"
-                f" median of {args.repeats})"
-            )
-            print(
-                f"  ODE reference      {figures['reference_s']:8.0f} s  ({figures['reference_s_per_loop']:.1f} s/loop"
-                f" over {args.reference_loops} grid points, extrapolated)"
-            )
-            print(
-                f"  speedup            {figures['speedup']:8.0f} x  (same loops one at a time:"
-                f" {figures['speedup_single_loop']:.0f} x)"
-            )
-            if "agreement" in figures:
-                a = figures["agreement"]
-                print(
-                    f"  one interval from the reference's state, 20 test cases x {a['intervals_per_case']} samples:"
-                    f" worst MV difference {a['worst_mv_diff_pct']:.1e} % of span (spec: < 0.05 %),"
-                    f" worst PV difference {a['worst_pv_diff_pct']:.1e} %, >= {a['min_slips_per_case']} slips a case"
-                )
-    elif args.bench == "accuracy":
-        _accuracy(args)
-    elif args.bench == "throughput":
-        _throughput(args)
-    elif args.bench == "bridge":
-        _bridge(args)
-    elif args.bench == "diagnose":
-        _diagnose(args)
-    elif args.bench == "measured":
-        _measured(args)
-    elif args.bench == "detect":
-        _detect(args)
-    elif args.bench == "sizing":
-        _sizing(args)
+    BENCHMARKS[args.bench](args)
     return 0
+
+
+def _sim(args) -> None:
+    from bench.sim_speed import bench_agreement, bench_sim
+
+    figures = bench_sim(reference_loops=args.reference_loops, repeats=args.repeats) | {"host": _machine()}
+    if not args.no_agreement:
+        figures["agreement"] = bench_agreement()
+    if args.json:
+        _print_json(figures)
+    else:
+        print(f"grid: {figures['loops']} loops x {figures['duration_s']:.0f} s, physical valve, one core")
+        print(
+            f"  fast simulator     {figures['grid_s']:8.2f} s  ({figures['grid_loops_per_s']:.0f} loops/s,"
+            f" median of {args.repeats})"
+        )
+        print(
+            f"  ODE reference      {figures['reference_s']:8.0f} s  ({figures['reference_s_per_loop']:.1f} s/loop"
+            f" over {args.reference_loops} grid points, extrapolated)"
+        )
+        print(
+            f"  speedup            {figures['speedup']:8.0f} x  (same loops one at a time:"
+            f" {figures['speedup_single_loop']:.0f} x)"
+        )
+        if "agreement" in figures:
+            a = figures["agreement"]
+            print(
+                f"  one interval from the reference's state, 20 test cases x {a['intervals_per_case']} samples:"
+                f" worst MV difference {a['worst_mv_diff_pct']:.1e} % of span (spec: < 0.05 %),"
+                f" worst PV difference {a['worst_pv_diff_pct']:.1e} %, >= {a['min_slips_per_case']} slips a case"
+            )
 
 
 def _sizing(args) -> None:
@@ -453,3 +442,16 @@ def _bridge(args) -> None:
             f"  server restart: down {f['restart_server_down_s']:.1f} s; every loop's samples back "
             f"{f['restart_resume_s']:.1f} s after the server was up (median {f['restart_resume_p50_s']:.1f} s)"
         )
+
+
+BENCHMARKS = {
+    "sim": _sim,
+    "accuracy": _accuracy,
+    "throughput": _throughput,
+    "bridge": _bridge,
+    "diagnose": _diagnose,
+    "measured": _measured,
+    "detect": _detect,
+    "sizing": _sizing,
+}
+"""Each subcommand's runner: it runs its benchmark and prints (or ``--json``: one object)."""

@@ -214,3 +214,14 @@ def test_the_bridge_answers_a_bad_loop_file_or_flag_with_one_line(tmp_path, caps
 )
 def test_plant_and_replay_answer_bad_flags_with_one_line(capsys, argv, expected):
     _one_line_error(capsys, argv, expected)
+
+
+def test_every_bench_subcommand_has_its_runner():
+    import argparse
+
+    from stiction.commands import bench
+
+    parser = argparse.ArgumentParser()
+    bench.add_arguments(parser)
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert set(sub.choices) == set(bench.BENCHMARKS)
