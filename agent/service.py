@@ -44,23 +44,22 @@ stays bounded and reports are late rather than samples stranded."""
 
 @dataclass(frozen=True)
 class AgentSettings:
+    """The agent process's settings: the core's (windows, reports, ownership: ``CoreSettings``, passed
+    down as they are) and those of its Zenoh edge."""
+
     agent_id: str
-    prefix: str = keys.DEFAULT_PREFIX
-    window_samples: int = 1000
-    report_every_samples: int = 60
+    core: CoreSettings = CoreSettings()
     models_dir: Path | None = None
     health_every_s: float = 2.0
     max_batch: int = 200
     """Windows quantified together at most (the pipeline batches them)."""
-    max_loops: int = 20000
-    """Loops held at most: a burst of unknown loops beyond it is refused, not stored."""
-    first_report_samples: int = 200
-    """A new loop's first (partial) report once it holds this many samples."""
-    estimate_every: int = 5
-    """Reports of a loop still called sticky between fresh friction readings (``CoreSettings``)."""
     size_every_s: float = 3600.0
     """A loop called sticky whose process is unknown has it identified and S and J read under it once
     in this long, on a worker process of lowered priority (``agent.sizing_plan``); 0: never."""
+
+    @property
+    def prefix(self) -> str:
+        return self.core.prefix
 
 
 class AgentService:
@@ -71,17 +70,7 @@ class AgentService:
         self.settings = settings
         self.session = session
         self.quantifier = quantifier or Quantifier(settings.models_dir)
-        self.core = AgentCore(
-            settings.agent_id,
-            CoreSettings(
-                prefix=settings.prefix,
-                window_samples=settings.window_samples,
-                report_every_samples=settings.report_every_samples,
-                max_loops=settings.max_loops,
-                first_report_samples=settings.first_report_samples,
-                estimate_every=settings.estimate_every,
-            ),
-        )
+        self.core = AgentCore(settings.agent_id, settings.core)
         self.latest: dict[str, bytes] = {}
         self._inbox: deque = deque()
         self._reports_seen: deque = deque()  # (key, payload) of reports published by any agent
@@ -186,7 +175,7 @@ class AgentService:
         self._history_asked_at = now
         k = self._history_wanted.pop(0)
         self.session.get(
-            f"{keys.shard_samples(self.settings.prefix, k)}?last={self.settings.window_samples}",
+            f"{keys.shard_samples(self.settings.prefix, k)}?last={self.settings.core.window_samples}",
             self._on_history,
             consolidation=self._zenoh.ConsolidationMode.NONE,
             timeout=HISTORY_TIMEOUT_S,

@@ -66,6 +66,7 @@ def open_sink(mode: str | None):
 
 def run(args: argparse.Namespace) -> int:
 
+    from agent.core import CoreSettings
     from agent.service import AgentService, AgentSettings
 
     if args.size_every < 0:
@@ -78,16 +79,14 @@ def run(args: argparse.Namespace) -> int:
         args.connect = [DEFAULT_ENDPOINT]
         args.listen = [zenoh_config.free_loopback_endpoint()]
     agent_id = args.agent_id or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
-    settings = AgentSettings(
-        agent_id=agent_id,
+    core = CoreSettings(
         prefix=args.prefix,
         window_samples=args.window,
         report_every_samples=args.report_every,
         first_report_samples=args.first_window,
         estimate_every=args.estimate_every,
-        size_every_s=60.0 * args.size_every,
-        models_dir=args.models,
     )
+    settings = AgentSettings(agent_id=agent_id, core=core, size_every_s=60.0 * args.size_every, models_dir=args.models)
     log.info("settings: %s", settings)
     stop = stop_on_signals()
     sink = open_sink(args.rerun)

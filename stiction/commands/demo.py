@@ -174,6 +174,7 @@ def _measured(paths) -> tuple[list, dict[str, str | None]]:
 
 def run(args: argparse.Namespace) -> int:
 
+    from agent.core import CoreSettings
     from agent.service import AgentService, AgentSettings
     from bridge.publish import SamplePublisher
     from bridge.replay import Schedule
@@ -213,8 +214,7 @@ def run(args: argparse.Namespace) -> int:
         agent = AgentService(
             AgentSettings(
                 agent_id="demo-agent",
-                prefix=args.prefix,
-                report_every_samples=args.report_every,
+                core=CoreSettings(prefix=args.prefix, report_every_samples=args.report_every),
                 models_dir=args.models,
             ),
             agent_s,

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import zenoh
 
+from agent.core import CoreSettings
 from agent.pipeline import Window
 from agent.service import AgentService, AgentSettings
 from bridge.publish import encode
@@ -33,11 +34,10 @@ def stack(quantifier):
     ):
         settings = AgentSettings(
             agent_id="t1",
-            prefix=PREFIX,
-            window_samples=WINDOW,
-            report_every_samples=EVERY,
+            core=CoreSettings(
+                prefix=PREFIX, window_samples=WINDOW, report_every_samples=EVERY, max_loops=len(GOOD) + 6
+            ),
             health_every_s=0.2,
-            max_loops=len(GOOD) + 6,
         )
         agent = AgentService(settings, s, quantifier).start()
         stop = threading.Event()
