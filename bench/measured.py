@@ -15,7 +15,7 @@ from pathlib import Path
 
 
 def _diagnose_file(path: str) -> dict:
-    from agent.historian import read_export
+    from bridge.historian import read_export
     from ident.report import diagnose_loop
 
     export = read_export(path)
@@ -33,7 +33,7 @@ def labels(folder: Path) -> dict[str, dict]:
 
 def labelled_exports(paths: list[Path]) -> list[tuple[str, bool, object]]:
     """``(tag, labelled sticky, Export)`` for every export of ``paths`` (folders or files) that has a label."""
-    from agent.historian import expand_paths, read_export
+    from bridge.historian import expand_paths, read_export
 
     known: dict[str, dict] = {}
     for p in paths:

@@ -42,7 +42,7 @@ def windows(
 ) -> Iterator:
     """(path, Export) for every window of every file; a file's error is printed as one line naming
     it, appended to ``failed``, and the next file is read."""
-    from agent.historian import expand_paths, read_export, read_windows
+    from bridge.historian import expand_paths, read_export, read_windows
 
     columns = {f: getattr(args, f"col_{f}") for f in fields if getattr(args, f"col_{f}")}
     for flag in ("last", "every"):

@@ -1,8 +1,8 @@
 """``stiction replay``: historian exports streamed into the Zenoh key space at --speed times real time.
 
 Each export (CSV or Parquet; a folder is every export in it) becomes one loop, its id from the
-file name, all loops starting together; ``SampleBatch`` on ``{prefix}/loop/{id}/samples`` with
-the file's own times, so an agent, the viewer and any dashboard run on the plant's recorded data.
+file name, all loops starting together; ``SampleBatch`` on each loop's shard key (``bridge.publish``)
+with the file's own times, so an agent, the viewer and any dashboard run on the plant's recorded data.
 A file that cannot be read is named on one line and the others are replayed.
 """
 
@@ -36,8 +36,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
     """One track per readable export; each unreadable one named on one line (and returned)."""
-    from agent.historian import expand_paths, read_export
     from agent.window import MIN_SAMPLES
+    from bridge.historian import expand_paths, read_export
     from bridge.replay import loop_ids, track
 
     files = expand_paths(paths)

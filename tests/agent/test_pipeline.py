@@ -130,7 +130,7 @@ def test_bad_windows_are_refused_with_the_reason(quantifier, window, message):
     ("modules", "forbidden"),
     [
         # the pipeline: no torch, no network, no viewer, no control-systems toolbox
-        ("agent.pipeline, agent.analysis, agent.historian", ("torch", "zenoh", "rerun", "control")),
+        ("agent.pipeline, agent.analysis, bridge.historian", ("torch", "zenoh", "rerun", "control")),
         # the agent's core names its types without the models, onnxruntime or the simulator
         ("agent.core", ("onnxruntime", "sim", "stiction", "scipy", "zenoh", "torch")),
     ],
@@ -326,7 +326,7 @@ def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantif
     slipped: the identified model (its PV missing the record) once read S 0.03 +- 0.01 %."""
     from pathlib import Path
 
-    from agent.historian import read_export
+    from bridge.historian import read_export
 
     plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
     files = sorted(plant.glob("stic_2_CDU.7040-311_FIC31102_*.csv"))

@@ -16,7 +16,7 @@ def plant_dir() -> Path:
 @pytest.fixture
 def measured_evidence(plant_dir):
     """``of(pattern)``: the evidence of each measured window whose file name matches ``pattern``."""
-    from agent.historian import read_export
+    from bridge.historian import read_export
     from detect.features import evidence
 
     def of(pattern: str) -> list:

@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agent import historian
-from agent.historian import read_export
+from bridge import historian
+from bridge.historian import read_export
 from schemas.errors import InputError
 
 PLANT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "stictiongpt_plant" / "csv"

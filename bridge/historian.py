@@ -2,7 +2,7 @@
 
 Required: ``op`` and ``pv``; optional: ``t`` (seconds or ISO 8601 times), ``sp``, ``mv``,
 ``mode``.  Without a time column the sample time comes from ``ts_s``.  The format, separator
-and decimal mark are read from the content (``agent.dialect``).  Files are read in blocks and
+and decimal mark are read from the content (``bridge.dialect``).  Files are read in blocks and
 only the window asked for is kept (``last`` samples, or one window every ``every`` samples), so
 memory follows the window, not the file.  Every problem is an ``InputError`` naming the file,
 the row (1-based, counting the header as row 1) or the column, and what was expected.
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agent.dialect import Dialect, sniff
+from bridge.dialect import Dialect, sniff
 from schemas.errors import InputError
 
 ALIASES = {
