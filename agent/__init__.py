@@ -1,1 +1,1 @@
-"""The streaming agent: rolling windows per loop, quantification, reports."""
+"""The streaming agent: rolling windows per loop, ownership of shards, reports on Zenoh."""

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import ValidationError
 
-from agent.window import Reading, RollingWindow, Window
+from agent.window import RollingWindow
+from quantify.window import Reading, Window
 from schemas import keys
 from schemas.messages import SampleBatch
 

@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from agent.core import AgentCore, CoreSettings
-from agent.identified import lower_priority, size_in_worker, sizing_pool
-from agent.pipeline import Quantifier, warm_up
 from agent.sizing_plan import SizingPlan
+from quantify.identified import lower_priority, size_in_worker, sizing_pool
+from quantify.pipeline import Quantifier, warm_up
 from schemas import keys
 from schemas.errors import StictionError
 from schemas.messages import AgentHealth, LoopTruth

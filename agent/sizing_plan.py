@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from agent.identified import needs_sizing, with_sizing
 from ident.sizing import Sizing
+from quantify.identified import needs_sizing, with_sizing
 from schemas.report import StictionReport
 
 

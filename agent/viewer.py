@@ -177,7 +177,7 @@ class RerunSink:
             self.recording.send_blueprint(blueprint(self._loops))
 
     def log_report(self, report, window, details, truth=None) -> None:
-        """One report with its window (``agent.pipeline.Window``) and ``Details``; ``truth``: (fs, fd) if known.
+        """One report with its window (``quantify.pipeline.Window``) and ``Details``; ``truth``: (fs, fd) if known.
 
         History (OP, PV, the estimates) is buffered per loop and sent with the loop's clouds."""
         loop_id, rec = report.loop_id, self.recording

@@ -14,10 +14,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from agent.features import thesis_window
-from agent.pipeline import Quantifier, Window
 from bench.baselines.ellipse import apparent_stiction
 from bench.baselines.hammerstein import hammerstein_search
+from quantify.features import thesis_window
+from quantify.pipeline import Quantifier, Window
 from sim.grid import case_specs, random_loops, training_specs
 from sim.loop import simulate
 

@@ -146,7 +146,7 @@ def middle_extension(cause: str) -> dict[str, float]:
 
 
 def _quantify_rows(models_dir: Path | None, specs) -> list[list[float]]:
-    from agent.pipeline import Quantifier, Window
+    from quantify.pipeline import Quantifier, Window
 
     q = Quantifier(models_dir)
     r = simulate(specs).kept()

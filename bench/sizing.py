@@ -22,9 +22,9 @@ _QUANTIFIER = None
 
 
 def _one(item) -> dict:
-    from agent.identified import quantify_sized
-    from agent.pipeline import Quantifier, Window
     from ident.trust import MODEL_ERROR_J, MODEL_ERROR_S
+    from quantify.identified import quantify_sized
+    from quantify.pipeline import Quantifier, Window
     from sim.valve import band_and_jump_pct, band_and_jump_se_pct
 
     global _QUANTIFIER

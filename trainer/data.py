@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from agent.analysis import analyse
+from quantify.analysis import analyse
 from sim.extensions import Extensions
 from sim.grid import random_disturbance, training_specs
 from sim.loop import simulate
@@ -33,7 +33,7 @@ def thesis_set(extensions: Extensions | None = None) -> Dataset:
     """Thesis 4.6: the 1275 noise-free patterns, one realisation, 100 OP samples from the first cycle."""
     specs = training_specs(extensions=extensions)
     r = simulate(specs).kept()
-    from agent.features import thesis_window
+    from quantify.features import thesis_window
 
     inputs = thesis_window(r.op)
     targets = np.array([[s.fs_pct, s.fd_pct] for s in specs])

@@ -13,9 +13,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from agent.analysis import analyse
-from agent.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
-from agent.inlpca import InlpcaSettings
+from quantify.analysis import analyse
+from quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
+from quantify.inlpca import InlpcaSettings
 from schemas.model_card import ModelCard, TensorSpec
 from sim.extensions import Extensions
 from sim.grid import case_specs
@@ -27,7 +27,7 @@ from trainer.fit import FitSettings, fit
 log = logging.getLogger(__name__)
 
 MODEL_VERSION = "1"
-DEFAULT_MODELS_DIR = Path(__file__).resolve().parent.parent / "agent" / "models"
+DEFAULT_MODELS_DIR = Path(__file__).resolve().parent.parent / "quantify" / "models"
 
 
 @dataclass(frozen=True)

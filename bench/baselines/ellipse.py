@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.acf import acf_period
+from quantify.acf import acf_period
 from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.physical import LEVEL_GAIN_PER_S
+from quantify.physical import LEVEL_GAIN_PER_S
 from sim.valve import FRICTION_FULL_SCALE_LBF, VALVE
 
 LBF_PER_PCT_FRICTION = FRICTION_FULL_SCALE_LBF / 100.0

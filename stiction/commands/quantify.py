@@ -148,8 +148,8 @@ def quantified(
     ``details``: fit the INLPCA curve and keep the identified model's PV, for the plots.
     ``in_order=False``: within a chunk, the windows that wait for no sizing come first, so that
     their caller's work (drawing them) overlaps the sizings running on the workers."""
-    from agent.pipeline import Quantifier, Window
-    from agent.window import MIN_SAMPLES
+    from quantify.pipeline import Quantifier, Window
+    from quantify.window import MIN_SAMPLES
 
     if args.size_every < 0:
         raise StictionError(f"--size-every {args.size_every:g}: minutes, at least 0")
@@ -220,7 +220,7 @@ def _size(args, items: list[_Item], sized: dict, pool):
     """Start the sizings these windows need: a sticky window of unknown process, once in
     ``--size-every`` minutes of its file's data; the windows between share the last one.  On
     ``--jobs`` worker processes (started here when first needed); returns the pool."""
-    from agent.identified import needs_sizing, size_safely, sizing_pool
+    from quantify.identified import needs_sizing, size_safely, sizing_pool
 
     for item in items:
         if args.no_identify or not needs_sizing(item.result.report):
@@ -245,7 +245,7 @@ def _size(args, items: list[_Item], sized: dict, pool):
 def _finished(items: list[_Item], in_order: bool = True) -> Iterator[Quantified]:
     """The windows' reports with their sizings and the export's warnings: in order, or (``in_order``
     false) those without a sizing to wait for first."""
-    from agent.identified import with_sizing_and_model
+    from quantify.identified import with_sizing_and_model
 
     if not in_order:
         items = sorted(items, key=lambda item: item.job is not None)  # stable: otherwise in order

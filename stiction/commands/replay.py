@@ -36,9 +36,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
     """One track per readable export; each unreadable one named on one line (and returned)."""
-    from agent.window import MIN_SAMPLES
     from bridge.historian import expand_paths, read_export
     from bridge.replay import loop_ids, track
+    from quantify.window import MIN_SAMPLES
 
     files = expand_paths(paths)
     tracks, failed = [], []

@@ -19,7 +19,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--models", type=Path, help="output directory (default: a new stiction-models-<time> folder)")
     where.add_argument(
-        "--replace-shipped", action="store_true", help="overwrite the models the agent ships with (agent/models)"
+        "--replace-shipped", action="store_true", help="overwrite the models the agent ships with (quantify/models)"
     )
     p.add_argument(
         "--extension",
@@ -78,10 +78,10 @@ def train_detector(args: argparse.Namespace) -> int:
     """The detector alone: numpy and scipy, a few seconds."""
     import numpy as np
 
-    from agent.predictor import DEFAULT_MODELS_DIR
     from bench.measured import labelled_exports
     from detect import training
     from detect.features import evidence
+    from quantify.predictor import DEFAULT_MODELS_DIR
 
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
     n_per_cause = training.N_PER_CAUSE

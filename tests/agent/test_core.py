@@ -186,7 +186,7 @@ def test_the_due_window_carries_the_streamed_setpoint():
 
 
 def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports():
-    from agent.window import Reading
+    from quantify.window import Reading
 
     core = _core(estimate_every=3)
     seq = 0
@@ -221,7 +221,7 @@ def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports()
 
 
 def test_fresh_readings_are_rationed_while_the_agent_is_behind_never_read_ones_first():
-    from agent.window import Reading
+    from quantify.window import Reading
 
     core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=100, stagger=False,
                                         estimate_every=4, reading_lag_s=0.5))  # fmt: skip

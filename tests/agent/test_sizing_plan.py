@@ -2,9 +2,9 @@
 
 import math
 
-from agent.identified import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING
 from agent.sizing_plan import NOTE, SizingPlan
 from ident.sizing import Sizing
+from quantify.identified import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING
 from schemas.diagnosis import Process
 from schemas.report import Estimate, ProcessInfo, StictionReport
 

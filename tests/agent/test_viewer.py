@@ -6,8 +6,8 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from agent.pipeline import Window  # noqa: E402
 from agent.viewer import ENTITIES, RerunSink, blueprint, path  # noqa: E402
+from quantify.pipeline import Window  # noqa: E402
 from sim.grid import case_specs  # noqa: E402
 from sim.loop import simulate  # noqa: E402
 
@@ -90,7 +90,7 @@ def test_bad_mode_is_refused():
 
 @pytest.fixture(scope="module")
 def quantifier_fixture():
-    from agent.pipeline import Quantifier
+    from quantify.pipeline import Quantifier
 
     return Quantifier()
 

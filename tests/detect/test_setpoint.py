@@ -5,10 +5,10 @@ setpoint step is found; a valve that moves, with or without a deadband smaller t
 import numpy as np
 import pytest
 
-from agent.predictor import DEFAULT_MODELS_DIR
 from detect.features import evidence
 from detect.training import DETECTOR_FILE
 from detect.verdict import STEP_AT, STICTION_AT, Detector, decide
+from quantify.predictor import DEFAULT_MODELS_DIR
 
 STEPS = ((0.3, 2.0), (0.65, -2.0))
 """The operator raises the setpoint by 2 % of span a third into the window and lowers it again later."""

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from agent.predictor import DEFAULT_MODELS_DIR
 from detect.features import evidence
 from detect.training import DETECTOR_FILE, SIM_SEED
 from detect.verdict import STICTION_AT, Detector, decide, fit_logistic
+from quantify.predictor import DEFAULT_MODELS_DIR
 from sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
 
 

@@ -5,7 +5,7 @@ import time
 
 import pytest
 
-from agent.pipeline import Quantifier
+from quantify.pipeline import Quantifier
 
 
 def wait_until(condition, timeout_s: float = 30.0, what: str = "condition") -> None:

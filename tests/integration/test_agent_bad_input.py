@@ -9,9 +9,9 @@ import pytest
 import zenoh
 
 from agent.core import CoreSettings
-from agent.pipeline import Window
 from agent.service import AgentService, AgentSettings
 from bridge.publish import encode
+from quantify.pipeline import Window
 from schemas import keys
 from schemas.report import StictionReport
 from sim.grid import case_specs

@@ -29,8 +29,8 @@ def _port() -> int:
 )
 def test_served_web_viewer_shows_the_op_pv_loops(quantifier):
     pytest.importorskip("rerun")
-    from agent.pipeline import Window
     from agent.viewer import RerunSink
+    from quantify.pipeline import Window
     from sim.grid import case_specs
     from sim.loop import simulate
 

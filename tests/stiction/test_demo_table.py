@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from agent.pipeline import Quantifier, Window
+from quantify.pipeline import Quantifier, Window
 from schemas.messages import LoopTruth
 from sim.grid import case_specs
 from sim.loop import simulate

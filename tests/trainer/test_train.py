@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agent.pipeline import Quantifier, Window
+from quantify.pipeline import Quantifier, Window
 from schemas.model_card import ModelCard
 from sim.loop import LoopSpec, simulate
 from trainer.fit import FitSettings

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from agent import physical
+from quantify import physical
 from sim.disturbance import Disturbance
 from sim.grid import case_specs
 from sim.loop import LoopSpec, simulate
@@ -36,7 +36,7 @@ def test_segmented_reading_sees_through_white_input_noise():
 
 @pytest.mark.parametrize("coefficient", [0.1, 0.2])
 def test_segmented_reading_abstains_or_is_right_under_white_output_noise(coefficient):
-    from agent.pipeline import SEGMENTED_MAX_SE_PCT
+    from quantify.pipeline import SEGMENTED_MAX_SE_PCT
 
     specs, r = _white_noise_loops("output", coefficient)
     seg = physical.read_segmented(r.op, r.pv)

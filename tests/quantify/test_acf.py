@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from agent.acf import acf_period, autocorrelation
+from quantify.acf import acf_period, autocorrelation
 from sim.grid import case_specs
 from sim.loop import simulate
 

@@ -13,7 +13,7 @@ All three read the thesis's level loop: where its process is neither declared no
 (``ident.controller``), ``method`` is ``none`` and the headline numbers are null, the learned
 and thesis readings staying in their blocks, and a warning says why.  Such a loop called
 sticky has its own process identified and S and J read under it outside this pipeline
-(seconds of CPU a window, ``agent.identified``): by ``stiction quantify`` at once, by the
+(seconds of CPU a window, ``quantify.identified``): by ``stiction quantify`` at once, by the
 agent in the background.
 """
 
@@ -29,18 +29,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from agent import inlpca, physical
-from agent.acf import acf_period
-from agent.analysis import WindowAnalysis, analyse
-from agent.features import CYCLE_FEATURES, THESIS_WINDOW
-from agent.identified import NOT_IDENTIFIED, NOT_READ_WARNING
-from agent.predictor import DEFAULT_MODELS_DIR, load_models, model_version
-from agent.window import Reading, Window
 from detect import features
 from detect.training import DETECTOR_FILE
 from detect.verdict import Detector, Verdict, decide
 from ident import controller
 from ident.checks import blocking, data_checks, impossible_friction
+from quantify import inlpca, physical
+from quantify.acf import acf_period
+from quantify.analysis import WindowAnalysis, analyse
+from quantify.features import CYCLE_FEATURES, THESIS_WINDOW
+from quantify.identified import NOT_IDENTIFIED, NOT_READ_WARNING
+from quantify.predictor import DEFAULT_MODELS_DIR, load_models, model_version
+from quantify.window import Reading, Window
 from schemas.report import Estimate, ProcessInfo, StictionReport
 from sim.loop import TS_S
 from sim.process import LOOPS
@@ -372,7 +372,7 @@ def _choose(candidates, op_range_pct: float, verdict: str, known_process: bool):
     known process no block becomes the headline: the learned models and the thesis chain read the
     thesis's level loop only (on simulated plant-like loops their S was 26-47 % off in median,
     inside S +- 2 spread in 60-67 %: ``stiction bench sizing``): ``NOT_READ_WARNING``, until a sizing
-    under the identified process replaces it (``agent.identified.with_sizing``)."""
+    under the identified process replaces it (``quantify.identified.with_sizing``)."""
     method, chosen = "none", (np.nan, np.nan, np.nan, np.nan)
     shown, warnings = {}, []
     for name, ok, *estimate in candidates:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.inlpca import InlpcaFit
+from quantify.inlpca import InlpcaFit
 
 THESIS_WINDOW = 100
 CURVE_POINTS = 32

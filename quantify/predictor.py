@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
-from agent.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
-from agent.inlpca import InlpcaSettings
+from quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
+from quantify.inlpca import InlpcaSettings
 from schemas.errors import StictionError
 from schemas.model_card import CARD_FORMAT, ModelCard
 

@@ -1,11 +1,11 @@
 """The INLPCA's training loop, compiled: Adam on the inverse network, one window after another.
 
-``agent.inlpca`` sets each window up (standardising, the initial angles and weights) and
+``quantify.inlpca`` sets each window up (standardising, the initial angles and weights) and
 projects every sample afterwards in numpy; the loop between, 100 iterations of forward pass,
 analytic gradients and Adam over 128 samples and 6 hidden units, is some 4,500 small numpy
 calls a batch, so a batch of one window cost 14 ms and of fifty 2.8 ms a window.  Here it runs
 window by window in compiled loops (``cache=True``: compiled once per machine), the same
-arithmetic as ``agent.inlpca.loss_and_grads`` and its Adam, which the tests hold it to.
+arithmetic as ``quantify.inlpca.loss_and_grads`` and its Adam, which the tests hold it to.
 It runs without the GIL: a batch of fifty windows takes 150 ms, through which the agent's
 Zenoh callback thread must go on taking in samples.
 """

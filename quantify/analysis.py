@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent import features, inlpca, physical
-from agent.acf import acf_period
+from quantify import features, inlpca, physical
+from quantify.acf import acf_period
 
 ROUGHNESS_NOISY = 0.05
 """Median |second difference| over median |first difference| of OP above which a window is noisy.

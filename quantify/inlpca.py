@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent import inlpca_kernel
+from quantify import inlpca_kernel
 
 
 @dataclass(frozen=True)
@@ -96,7 +96,7 @@ class _Adam:
 
 def _train_numpy(theta, w1, b1, w2, b2, x, iterations, lr, angle_lr, weight_decay) -> None:
     """The training loop in numpy, all windows at once, in place: the reference the compiled one
-    (``agent.inlpca_kernel.train``) is tested against."""
+    (``quantify.inlpca_kernel.train``) is tested against."""
     n = x.shape[1]
     adam = _Adam([theta.shape, w1.shape, b1.shape, w2.shape, b2.shape], [angle_lr, lr, lr, lr, lr])
     params = [theta, w1, b1, w2, b2]

@@ -89,7 +89,7 @@ def needs_sizing(report: StictionReport) -> bool:
 
 
 def with_sizing_and_model(report: StictionReport, details, sizing: Sizing, t_end_s: float | None, note=None):
-    """``with_sizing``, and the details (``agent.pipeline.Details`` or None) with the identified
+    """``with_sizing``, and the details (``quantify.pipeline.Details`` or None) with the identified
     model's PV where the sizing was made from this very window (``note`` None) and carries it."""
     report = with_sizing(report, sizing, t_end_s, note)
     if note is None and details is not None and sizing.model_pv_pct is not None:
@@ -99,7 +99,7 @@ def with_sizing_and_model(report: StictionReport, details, sizing: Sizing, t_end
 
 def quantify_sized(quantifier, windows, details: bool = False) -> list[tuple[StictionReport, object]]:
     """``(report, details)`` of each window as ``stiction quantify`` makes them, every sizing done
-    here in turn (``quantifier``: an ``agent.pipeline.Quantifier``; details None unless asked)."""
+    here in turn (``quantifier``: an ``quantify.pipeline.Quantifier``; details None unless asked)."""
     out = []
     for w, r in zip(windows, quantifier.results(windows, details=details), strict=True):
         report, d = r.report, r.details

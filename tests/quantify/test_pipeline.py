@@ -6,9 +6,9 @@ import sys
 import numpy as np
 import pytest
 
-from agent.identified import quantify_sized
-from agent.pipeline import Quantifier, Window
 from detect.verdict import LEANS_AT
+from quantify.identified import quantify_sized
+from quantify.pipeline import Quantifier, Window
 from schemas.errors import InputError
 from schemas.report import StictionReport
 from sim.grid import case_specs
@@ -130,7 +130,7 @@ def test_bad_windows_are_refused_with_the_reason(quantifier, window, message):
     ("modules", "forbidden"),
     [
         # the pipeline: no torch, no network, no viewer, no control-systems toolbox
-        ("agent.pipeline, agent.analysis, bridge.historian", ("torch", "zenoh", "rerun", "control")),
+        ("quantify.pipeline, quantify.analysis, bridge.historian", ("torch", "zenoh", "rerun", "control")),
         # the agent's core names its types without the models, onnxruntime or the simulator
         ("agent.core", ("onnxruntime", "sim", "stiction", "scipy", "zenoh", "torch")),
     ],
@@ -222,7 +222,7 @@ def test_a_window_still_called_sticky_carries_the_reading_it_is_given_and_only_t
 
 
 def test_a_deferred_reading_reports_the_verdict_and_says_the_numbers_come_later(quantifier, cases):
-    from agent.pipeline import DEFERRED_WARNING
+    from quantify.pipeline import DEFERRED_WARNING
 
     specs, r = cases
     rng = np.random.default_rng(6)
@@ -236,7 +236,7 @@ def test_a_deferred_reading_reports_the_verdict_and_says_the_numbers_come_later(
 
 
 def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers(quantifier):
-    from agent.pipeline import NOT_READ_WARNING
+    from quantify.pipeline import NOT_READ_WARNING
     from sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(30, 2027) if loop.cause == "stiction"]
@@ -256,7 +256,7 @@ def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers
 
 
 def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_process(quantifier, cases):
-    from agent.pipeline import NOT_READ_WARNING
+    from quantify.pipeline import NOT_READ_WARNING
     from sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]

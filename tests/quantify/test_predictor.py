@@ -5,7 +5,7 @@ import shutil
 
 import pytest
 
-from agent.predictor import DEFAULT_MODELS_DIR, ModelError, Predictor
+from quantify.predictor import DEFAULT_MODELS_DIR, ModelError, Predictor
 
 
 @pytest.fixture
