@@ -7,6 +7,7 @@ COPY ident ident
 COPY detect detect
 COPY bridge bridge
 COPY agent agent
+COPY quantify quantify
 COPY schemas schemas
 COPY stiction stiction
 COPY trainer trainer
