@@ -45,5 +45,7 @@ def test_an_agent_subscribed_to_one_shard_gets_only_its_loops_and_their_history_
         b = SampleBatch.model_validate_json(batches[loops[0]].payload.to_bytes())
         assert b.seq == 25 and b.op == list(np.arange(25, 50, dtype=float)) and b.pv == [x / 2 for x in b.op]
         assert str(batches[loops[0]].key_expr) == keys.sharded_samples(PREFIX, loops[0])
+        bad = list(sub_s.get(f"{keys.shard_samples(PREFIX, shard)}?last=all", timeout=5))  # not a number
+        assert len(bad) == 1 and bad[0].ok is None and b"last" in bad[0].err.payload.to_bytes()
         sub.undeclare()
         out.close()
