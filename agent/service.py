@@ -22,6 +22,7 @@ import numpy as np
 
 from agent.core import AgentCore, CoreSettings
 from agent.sizing_plan import SizingPlan
+from quantify.assembly import assemble, needs_sizing
 from quantify.identified import lower_priority, size_in_worker, sizing_pool
 from quantify.pipeline import Quantifier, warm_up
 from schemas import keys
@@ -72,6 +73,9 @@ class AgentService:
         self.quantifier = quantifier or Quantifier(settings.models_dir)
         self.core = AgentCore(settings.agent_id, settings.core)
         self.latest: dict[str, bytes] = {}
+        self.drafts: dict[str, StictionReport] = {}
+        """The latest draft of each sticky loop of unknown process: its report is assembled again
+        with a sizing that comes back (``quantify.assembly``)."""
         self._inbox: deque = deque()
         self._reports_seen: deque = deque()  # (key, payload) of reports published by any agent
         self._wake = threading.Event()
@@ -277,13 +281,18 @@ class AgentService:
         for (w, arrived), result in zip(due, results, strict=True):
             if result is None:
                 continue
-            report, details = result.report, result.details
-            self.core.reported(w.loop_id, report.verdict, result.reading)
-            report = report.model_copy(update={"agent_id": self.settings.agent_id})
-            if self.sizing is not None:
-                if self.sizing.wanted(report, time.monotonic()):
-                    self._size_or_queue(w, report.partial)
-                report = self.sizing.apply(report)
+            draft, details = result.draft, result.details
+            self.core.reported(w.loop_id, draft.verdict, result.reading)
+            if self.sizing is None:
+                report = assemble(draft, agent_id=self.settings.agent_id)
+            else:
+                if self.sizing.wanted(draft, time.monotonic()):
+                    self._size_or_queue(w, draft.partial)
+                report = self.sizing.apply(draft, self.settings.agent_id)
+                if needs_sizing(draft):
+                    self.drafts[w.loop_id] = draft
+                else:
+                    self.drafts.pop(w.loop_id, None)
             payload = report.model_dump_json().encode()
             self.latest[w.loop_id] = payload
             self.session.put(keys.report(self.settings.prefix, w.loop_id), payload, **put_kw)
@@ -329,13 +338,10 @@ class AgentService:
                 log.exception("background sizing of %s failed", loop_id)
                 sizing = None
             self.sizing.finished(loop_id, sizing, t_end_s, time.monotonic())
-            payload = self.latest.get(loop_id)
-            if payload is None or not self.core.owns(loop_id):
+            draft = self.drafts.get(loop_id)
+            if draft is None or not self.core.owns(loop_id):
                 continue
-            report = StictionReport.model_validate_json(payload)
-            sized = self.sizing.apply(report)
-            if sized is not report:
-                self.latest[loop_id] = sized.model_dump_json().encode()
+            self.latest[loop_id] = self.sizing.apply(draft, self.settings.agent_id).model_dump_json().encode()
         while self._size_queue and self.sizing.has_room():
             self._size(*self._size_queue.pop(next(iter(self._size_queue))))
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ident.sizing import Sizing
-from quantify.identified import needs_sizing, with_sizing
+from quantify.assembly import assemble, needs_sizing
 from schemas.report import StictionReport
 
 
@@ -74,12 +74,13 @@ class SizingPlan:
         failed = Sizing(nan, nan, nan, nan, None, 0, "the background identification failed")
         self.latest[loop_id] = Sized(sizing if sizing is not None else failed, t_end_s, now_s, n_samples, partial)
 
-    def apply(self, report: StictionReport) -> StictionReport:
-        """The report with the loop's last sizing, where it is of a sticky loop of unknown process."""
-        last = self.latest.get(report.loop_id)
+    def apply(self, draft: StictionReport, agent_id: str | None = None) -> StictionReport:
+        """The report of a pipeline's draft (``quantify.assembly``), with the loop's last sizing where
+        it is of a sticky loop of unknown process."""
+        last = self.latest.get(draft.loop_id)
         if last is None:
-            return report
-        return with_sizing(report, last.sizing, last.t_end_s, NOTE)
+            return assemble(draft, agent_id=agent_id)
+        return assemble(draft, last.sizing, last.t_end_s, NOTE, agent_id=agent_id)
 
 
 NOTE = (

@@ -6,6 +6,7 @@ features with this very function, so training and inference see the same inputs.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,3 +63,47 @@ def analyse(
     cycle_input = features.cycle_features(fit, period_s)
     reading = physical.read_best(op, pv, ts_s) if physical_reading else physical.no_reading(op.shape[0])
     return WindowAnalysis(period_s, regularity, rough, noisy, fit, thesis_input, cycle_input, reading)
+
+
+def analyse_where(op, pv, ts_s, denoise, need: np.ndarray, level: np.ndarray) -> WindowAnalysis:
+    """``analyse`` of the windows in ``need`` (the physical reading only of the ``level`` ones), the
+    others left empty: nan, no fit, not denoised; the ACF period for every window."""
+    n = op.shape[0]
+    if need.all() and level.all():
+        return analyse(op, pv, ts_s, denoise=denoise)
+    period_s, regularity = acf_period(op, ts_s)
+    reading = physical.no_reading(n)
+    if level.any():
+        reading = _scatter(reading, physical.read_best(op[level], pv[level], ts_s), level)
+    empty = WindowAnalysis(
+        period_s, regularity, np.full(n, np.nan), np.zeros(n, bool), inlpca.no_fit(op.shape),
+        np.full((n, features.THESIS_WINDOW), np.nan), np.full((n, features.CYCLE_FEATURES), np.nan), reading,
+    )  # fmt: skip
+    if not need.any():
+        return empty
+    some = analyse(op[need], pv[need], ts_s, denoise=denoise, physical_reading=False)
+    return dataclasses.replace(
+        empty,
+        roughness=_put(empty.roughness, some.roughness, need),
+        noisy=_put(empty.noisy, some.noisy, need),
+        fit=_scatter(empty.fit, some.fit, need),
+        thesis_input=_put(empty.thesis_input, some.thesis_input, need),
+        cycle_input=_put(empty.cycle_input, some.cycle_input, need),
+    )
+
+
+def _put(full: np.ndarray, part: np.ndarray, where: np.ndarray) -> np.ndarray:
+    out = full.copy()
+    out[where] = part
+    return out
+
+
+def _scatter(full, part, where: np.ndarray):
+    """A dataclass of per-window arrays, ``part``'s rows put where ``where`` is true."""
+    values = {}
+    for f in dataclasses.fields(full):
+        a, b = getattr(full, f.name), getattr(part, f.name)
+        values[f.name] = (
+            tuple(_put(x, y, where) for x, y in zip(a, b, strict=True)) if isinstance(a, tuple) else _put(a, b, where)
+        )
+    return type(full)(**values)

@@ -211,3 +211,17 @@ def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings, referen
         explained=explained,
         _params=(w1, b1, w2, b2, mean, scale),
     )
+
+
+def no_fit(shape: tuple[int, int], settings: InlpcaSettings = DEFAULT_SETTINGS) -> InlpcaFit:
+    """An all-nan fit of ``shape`` (windows, samples): the place of windows left unfitted in a batch."""
+    n, m = shape
+    h = settings.hidden_units
+    nan = np.nan
+    params = (
+        np.full((n, h, 2), nan), np.full((n, h), nan), np.full((n, 2, h), nan), np.full((n, 2), nan),
+        np.full((n, 2), nan), np.full((n, 2), nan),
+    )  # fmt: skip
+    return InlpcaFit(
+        np.full((n, m), nan), np.ones(n), np.full((n, m, 2), nan), np.full((n, 2), nan), np.full(n, nan), params
+    )

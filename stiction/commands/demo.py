@@ -54,7 +54,7 @@ def _no_numbers(r) -> str:
 
 
 def _table(reports, truths, rows: int, elapsed: float, published: int, loops: int) -> str:
-    from quantify.pipeline import NOT_IDENTIFIED
+    from quantify.assembly import NOT_IDENTIFIED
 
     lines = [
         f"stiction demo  {elapsed:5.0f} s   {loops} loops   {published} s simulated per loop   "

@@ -220,10 +220,11 @@ def _size(args, items: list[_Item], sized: dict, pool):
     """Start the sizings these windows need: a sticky window of unknown process, once in
     ``--size-every`` minutes of its file's data; the windows between share the last one.  On
     ``--jobs`` worker processes (started here when first needed); returns the pool."""
-    from quantify.identified import needs_sizing, size_safely, sizing_pool
+    from quantify.assembly import needs_sizing
+    from quantify.identified import size_safely, sizing_pool
 
     for item in items:
-        if args.no_identify or not needs_sizing(item.result.report):
+        if args.no_identify or not needs_sizing(item.result.draft):
             continue
         last = sized.get(str(item.path))
         t_end = item.window.t_end_s
@@ -245,15 +246,13 @@ def _size(args, items: list[_Item], sized: dict, pool):
 def _finished(items: list[_Item], in_order: bool = True) -> Iterator[Quantified]:
     """The windows' reports with their sizings and the export's warnings: in order, or (``in_order``
     false) those without a sizing to wait for first."""
-    from quantify.identified import with_sizing_and_model
+    from quantify.assembly import assemble, with_model
 
     if not in_order:
         items = sorted(items, key=lambda item: item.job is not None)  # stable: otherwise in order
     for item in items:
-        report, details = item.result.report, item.result.details
-        if item.job is not None:
-            note = None if item.fresh else CARRIED
-            report, details = with_sizing_and_model(report, details, item.job.result(), item.job_t_end_s, note)
-        if item.export.warnings:
-            report = report.model_copy(update={"warnings": [*report.warnings, *item.export.warnings]})
+        sizing = item.job.result() if item.job is not None else None
+        note = None if item.fresh else CARRIED
+        report = assemble(item.result.draft, sizing, item.job_t_end_s, note, notes=item.export.warnings)
+        details = with_model(item.result.details, sizing if item.fresh else None)
         yield Quantified(item.path, item.export, item.window, report, details)

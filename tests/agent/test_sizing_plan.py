@@ -4,7 +4,7 @@ import math
 
 from agent.sizing_plan import NOTE, SizingPlan
 from ident.sizing import Sizing
-from quantify.identified import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING
+from quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble
 from schemas.diagnosis import Process
 from schemas.report import Estimate, ProcessInfo, StictionReport
 
@@ -14,6 +14,7 @@ PROCESS = Process(kind="self_regulating", gain=0.8, gain_se=0.05, time_constant_
 
 
 def _report(loop_id="L1", verdict="stiction", source="none"):
+    """A pipeline's draft (``quantify.assembly``): the window's facts, nothing said of the process yet."""
     none = Estimate(fs_pct=None, fd_pct=None)
     kind = "unknown" if source == "none" else "integrating"
     return StictionReport(
@@ -21,7 +22,7 @@ def _report(loop_id="L1", verdict="stiction", source="none"):
         amplitude_pct=1.0, process=ProcessInfo(kind=kind, source=source, sample_time_s=1.0), fs_pct=None,
         fd_pct=None, s_pct=None, j_pct=None, s_se_pct=None, j_se_pct=None, fs_se_pct=None, fd_se_pct=None,
         period_s=100.0, denoised=False, method="none", thesis=none, physical=None, learned=none, ood_score=None,
-        explained=None, oscillating=True, warnings=[NOT_IDENTIFIED, NOT_READ_WARNING], model_version="test",
+        explained=None, oscillating=True, warnings=[], model_version="test",
         n_samples=1000,
     )  # fmt: skip
 
@@ -51,7 +52,7 @@ def test_a_sized_loops_reports_carry_its_process_and_numbers_in_place_of_the_war
     # the same sizing never decorates a report that is not sticky, or whose process is known
     assert plan.apply(_report("L1", verdict="other_cause")).method == "none"
     assert plan.apply(_report("L1", source="declared")).process.source == "declared"
-    assert plan.apply(_report("L2")) == _report("L2")
+    assert plan.apply(_report("L2")) == assemble(_report("L2"))
 
 
 def test_a_sizing_that_read_nothing_says_why_and_so_does_a_failed_one():
@@ -64,7 +65,7 @@ def test_a_sizing_that_read_nothing_says_why_and_so_does_a_failed_one():
     plan.finished("L2", None, 5.0, now_s=0.0)  # the worker failed: the report says so, nothing else changes
     failed = plan.apply(_report("L2"))
     assert failed.warnings[-1] == NOT_READ_PREFIX + "the background identification failed" and plan.done == 2
-    assert failed.model_copy(update={"warnings": failed.warnings[:-1]}) == _report("L2")
+    assert failed.model_copy(update={"warnings": failed.warnings[:-1]}) == assemble(_report("L2"))
 
 
 def test_a_new_loops_partial_window_is_sized_from_500_samples_and_again_when_full_or_twice_as_long():

@@ -36,7 +36,7 @@ def test_segmented_reading_sees_through_white_input_noise():
 
 @pytest.mark.parametrize("coefficient", [0.1, 0.2])
 def test_segmented_reading_abstains_or_is_right_under_white_output_noise(coefficient):
-    from quantify.pipeline import SEGMENTED_MAX_SE_PCT
+    from quantify.policy import SEGMENTED_MAX_SE_PCT
 
     specs, r = _white_noise_loops("output", coefficient)
     seg = physical.read_segmented(r.op, r.pv)

@@ -236,7 +236,7 @@ def test_a_deferred_reading_reports_the_verdict_and_says_the_numbers_come_later(
 
 
 def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers(quantifier):
-    from quantify.pipeline import NOT_READ_WARNING
+    from quantify.assembly import NOT_READ_WARNING
     from sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(30, 2027) if loop.cause == "stiction"]
@@ -256,7 +256,7 @@ def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers
 
 
 def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_process(quantifier, cases):
-    from quantify.pipeline import NOT_READ_WARNING
+    from quantify.assembly import NOT_READ_WARNING
     from sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]

@@ -1,0 +1,142 @@
+"""A report's assembly, in one place: the window's facts, then what is known of the loop's process.
+
+The pipeline turns a window into a *draft*: a ``StictionReport`` with every field the window
+shows (verdict, evidence, the method's numbers, the warnings about the window) and no word on
+the process yet where it is neither declared nor identified as the thesis's.  ``assemble`` makes
+the report from a draft and what is known beside it: the process identified from the window
+(``ident.sizing``: by ``stiction quantify`` at once, by the agent in the background), the export's
+warnings, the agent's id.  Every warning is added here once, where its fact is known, and none is
+ever taken back: a draft assembled again with a newer sizing gives the newer report.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+from ident.sizing import Sizing
+from quantify.window import Window
+from schemas.report import Estimate, ProcessInfo, StictionReport
+from sim.process import LOOPS
+from sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
+
+NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
+NOT_READ_WARNING = (
+    "S and J not read: the learned models know only the thesis's level loop and this loop's process is "
+    "neither declared nor identified (their readings stay in the 'learned' and 'thesis' blocks); "
+    "stiction quantify and stiction diagnose read S and J under the process they identify, the agent "
+    "in the background (--size-every)"
+)
+NOT_READ_PREFIX = "S and J not read under the identified process: "
+NOTHING_SHOWN = {"thesis": None, "physical": None, "learned": None}
+
+
+def opt(x) -> float | None:
+    """A finite number, or None (the report's null)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def estimate_block(values) -> Estimate:
+    if values is None:
+        return Estimate(fs_pct=None, fd_pct=None)
+    fs, fd, fs_se, fd_se = values
+    return Estimate(fs_pct=opt(fs), fd_pct=opt(fd), fs_se_pct=opt(fs_se), fd_se_pct=opt(fd_se))
+
+
+def process_info(w: Window, ts_s: float, identified: bool) -> ProcessInfo:
+    """The thesis's level loop where declared or recognised (``quantify.policy.canonical_level``), else unknown."""
+    if w.process == "level" or identified:
+        source = "declared" if w.process == "level" else "identified"
+        return ProcessInfo(kind="integrating", source=source, gain=LOOPS["level"].gain, sample_time_s=ts_s)
+    return ProcessInfo(kind="unknown", source="none", sample_time_s=ts_s)
+
+
+def friction_fields(method: str, estimate: Sequence[float], t_end_s: float | None) -> dict:
+    """The headline numbers of the method that speaks: fs, fd and their S, J, in the report's fields."""
+    fs, fd, fs_se, fd_se = (opt(v) for v in estimate)
+    s_pct = j_pct = s_se = j_se = None
+    if fs is not None and fd is not None:
+        s_pct, j_pct = (opt(v) for v in band_and_jump_pct(fs, fd))
+        if fs_se is not None:
+            s_se, j_se = (opt(v) for v in band_and_jump_se_pct(fs_se, fd_se or 0.0))
+    return {
+        "method": method, "fs_pct": fs, "fd_pct": fd, "fs_se_pct": fs_se, "fd_se_pct": fd_se,
+        "s_pct": s_pct, "j_pct": j_pct, "s_se_pct": s_se, "j_se_pct": j_se,
+        "stiction_kind": fault_kind(s_pct, j_pct, j_se),
+        "estimate_t_end_s": t_end_s if method != "none" else None,
+    }  # fmt: skip
+
+
+def needs_sizing(report: StictionReport) -> bool:
+    """Whether a sizing under an identified process would change the report of this draft: a loop
+    called sticky whose process is neither declared nor identified as the thesis's."""
+    return report.verdict == "stiction" and report.process.source == "none"
+
+
+def identified_warning(sizing: Sizing) -> str:
+    head = f"process identified from OP and PV (stiction diagnose): {sizing.process.description}"
+    if not sizing.read:
+        return head
+    return head + "; S and J are read under it, their uncertainty including the model error measured on simulated " \
+        "plant-like loops"  # fmt: skip
+
+
+def assemble(
+    draft: StictionReport,
+    sizing: Sizing | None = None,
+    sizing_t_end_s: float | None = None,
+    note: str | None = None,
+    notes: Sequence[str] = (),
+    agent_id: str | None = None,
+) -> StictionReport:
+    """The report of ``draft`` (``quantify.pipeline``'s, for one window) with what is known beside it.
+
+    ``sizing``: the process identified from the loop's window and S, J read under it, used where
+    ``needs_sizing(draft)`` (a sticky loop of unknown process); ``sizing_t_end_s``: the end of the
+    window it was made from; ``note``: a warning added where its numbers are shown (the agent's
+    re-read); ``notes``: warnings of the record itself (an export's); ``agent_id``: the agent's."""
+    head, tail, update = [], [], {}
+    unknown = draft.process.source == "none"
+    sized = sizing is not None and needs_sizing(draft)
+    identified = sized and sizing.process is not None
+    if unknown and not identified:
+        head.append(NOT_IDENTIFIED)
+        if draft.verdict == "stiction":
+            tail.append(NOT_READ_WARNING)
+    if sized and not identified:  # the identification itself failed: say why
+        tail.append(NOT_READ_PREFIX + sizing.why)
+    if identified:
+        p = sizing.process
+        head.append(identified_warning(sizing))
+        update["process"] = ProcessInfo(
+            kind=p.kind, source="identified", gain=p.gain, time_constant_s=p.time_constant_s,
+            dead_time_s=p.dead_time_s, sample_time_s=draft.process.sample_time_s, description=p.description,
+        )  # fmt: skip
+        if not sizing.read:
+            tail.append(NOT_READ_PREFIX + sizing.why)
+        else:
+            s, j, s_se, j_se = (opt(v) for v in (sizing.s_pct, sizing.j_pct, sizing.s_se_pct, sizing.j_se_pct))
+            fs, fd, fs_se, fd_se = (opt(v) for v in sizing.fs_fd_pct())
+            update |= {
+                "method": "identified", "s_pct": s, "j_pct": j, "s_se_pct": s_se, "j_se_pct": j_se,
+                "stiction_kind": fault_kind(s, j, j_se),
+                "fs_pct": fs, "fd_pct": fd, "fs_se_pct": fs_se, "fd_se_pct": fd_se,
+                "estimate_t_end_s": sizing_t_end_s,
+            }  # fmt: skip
+            if note:
+                tail.append(note)
+    tail.extend(notes)
+    if head or tail:
+        update["warnings"] = [*head, *draft.warnings, *tail]
+    if agent_id is not None:
+        update["agent_id"] = agent_id
+    return draft.model_copy(update=update) if update else draft
+
+
+def with_model(details, sizing: Sizing | None):
+    """``quantify.pipeline.Details`` (or None) with the identified model's PV, where ``sizing`` carries it."""
+    if details is None or sizing is None or sizing.model_pv_pct is None:
+        return details
+    return dataclasses.replace(details, model_pv=sizing.model_pv_pct)

@@ -1,0 +1,74 @@
+"""A report is assembled once: the pipeline's draft says nothing of an unknown process, and each
+warning is added where its fact is known (no sizing, a failed one, a read one), never taken back."""
+
+import pytest
+
+from ident.sizing import Sizing
+from quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble, needs_sizing
+from quantify.identified import quantify_sized
+from quantify.pipeline import Quantifier, Window
+from schemas.diagnosis import Process
+from sim.grid import case_specs
+from sim.loop import simulate
+from sim.plant_loops import plant_loops, simulate_plant, stable
+
+PROCESS = Process(kind="self_regulating", gain=0.8, gain_se=0.05, time_constant_s=12.0, dead_time_s=2.0,
+                  sensor_tau_s=0.0, actuator_tau_s=0.0, sample_time_s=1.0,
+                  description="first order, T 12 s, dead time 2 s, gain 0.8 % per %")  # fmt: skip
+PROCESS_WARNINGS = (NOT_IDENTIFIED, NOT_READ_WARNING)
+
+
+@pytest.fixture(scope="module")
+def quantifier():
+    return Quantifier()
+
+
+@pytest.fixture(scope="module")
+def windows(quantifier):
+    """A sticky canonical loop declared a level loop, and a sticky plant-like loop of unknown process
+    that the pipeline calls sticky."""
+    specs = case_specs(seed=7)
+    r = simulate(list(specs.values())[:1]).kept()
+    declared = Window("declared", r.op[0], r.pv[0], process="level")
+    loops = [loop for loop in plant_loops(30, 2027) if loop.cause == "stiction"]
+    plant = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in enumerate(simulate_plant(loops))
+             if stable(op, pv)]  # fmt: skip
+    unknown = next(w for w, rep in zip(plant, quantifier.quantify(plant), strict=True) if rep.verdict == "stiction")
+    return declared, unknown
+
+
+def test_the_pipelines_draft_says_nothing_of_an_unknown_process_and_its_report_says_it_once(quantifier, windows):
+    declared, unknown = windows
+    results = quantifier.results([declared, unknown])
+    drafts = [r.draft for r in results]
+    assert all(w not in d.warnings for d in drafts for w in PROCESS_WARNINGS)
+    known, unsure = (r.report for r in results)
+    assert known.warnings == drafts[0].warnings  # a declared process: nothing to add
+    assert unsure.verdict == "stiction" and needs_sizing(drafts[1])
+    assert [unsure.warnings.count(w) for w in PROCESS_WARNINGS] == [1, 1]
+    assert unsure.s_pct is None and unsure.method == "none"
+
+
+def test_a_sizing_is_assembled_into_the_draft_and_a_newer_one_replaces_it_without_leftovers(quantifier, windows):
+    _, unknown = windows
+    draft = quantifier.results([unknown])[0].draft
+    read = assemble(draft, Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 900.0, note="re-read")
+    assert read.method == "identified" and read.s_pct == 2.0 and read.estimate_t_end_s == 900.0
+    assert not set(PROCESS_WARNINGS) & set(read.warnings) and read.warnings[-1] == "re-read"
+    assert read.warnings[0].startswith("process identified from OP and PV")
+    nan = float("nan")
+    unread = assemble(draft, Sizing(nan, nan, nan, nan, PROCESS, 1, "1 slip(s)"), 900.0, note="re-read")
+    assert unread.method == "none" and unread.process.source == "identified" and "re-read" not in unread.warnings
+    assert unread.warnings.count(NOT_READ_PREFIX + "1 slip(s)") == 1
+    failed = assemble(draft, Sizing(nan, nan, nan, nan, None, 0, "no model"), notes=["export: 3 duplicates"])
+    assert failed.warnings[-2:] == [NOT_READ_PREFIX + "no model", "export: 3 duplicates"]
+    assert [failed.warnings.count(w) for w in PROCESS_WARNINGS] == [1, 1]
+    # the draft itself is untouched: every assembly starts from the window's facts
+    assert assemble(draft) == quantifier.results([unknown])[0].report
+
+
+def test_quantify_sized_reads_s_and_j_under_the_identified_process_of_an_unknown_sticky_loop(quantifier, windows):
+    _, unknown = windows
+    (report, _), = quantify_sized(quantifier, [unknown])  # fmt: skip
+    assert report.process.source == "identified"
+    assert NOT_IDENTIFIED not in report.warnings and NOT_READ_WARNING not in report.warnings
