@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from bench.throughput import _proc_stats
+from bridge import zenoh_session
 from schemas import keys
-from stiction import zenoh_config
 
 PREFIX = "bench/bridge"
 
@@ -48,8 +48,8 @@ def _wait(condition, timeout_s: float, what: str) -> None:
 def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = True) -> dict:
     import zenoh
 
-    endpoint = zenoh_config.free_loopback_endpoint()
-    opc = f"opc.tcp://127.0.0.1:{zenoh_config.free_loopback_port()}"
+    endpoint = zenoh_session.free_loopback_endpoint()
+    opc = f"opc.tcp://127.0.0.1:{zenoh_session.free_loopback_port()}"
     arrivals: dict[str, list[tuple[int, int, float, float]]] = {}  # loop -> (seq, n, t_last, arrival)
     lock = threading.Lock()
 
@@ -61,7 +61,7 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
                 (b["seq"], len(b["op"]), b["t0_s"] + (len(b["op"]) - 1) * b["ts_s"], now)
             )
 
-    with tempfile.TemporaryDirectory() as tmp, zenoh.open(zenoh_config.build([endpoint])) as session:
+    with tempfile.TemporaryDirectory() as tmp, zenoh.open(zenoh_session.build([endpoint])) as session:
         loop_file = Path(tmp) / "loops.toml"
         plant_args = ["plant", "--loops", str(loops), "--endpoint", opc, "--loop-file", str(loop_file),
                       "--status-every", "5"]  # fmt: skip
@@ -76,7 +76,7 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
             _wait(loop_file.exists, 120, "the plant server")
             procs["bridge"] = _start(
                 "bridge", "opcua", "--loop-file", str(loop_file), "--prefix", PREFIX, "--connect", endpoint,
-                "--listen", zenoh_config.free_loopback_endpoint(), "--status-every", "0",
+                "--listen", zenoh_session.free_loopback_endpoint(), "--status-every", "0",
             )  # fmt: skip
             _wait(lambda: len(arrivals) == loops, 120, f"samples of all {loops} loops")
             time.sleep(3.0)  # past the subscription's first burst

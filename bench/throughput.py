@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from bridge import zenoh_session
 from bridge.publish import SamplePublisher
 from schemas import keys
 from sim.publisher import batch, loop_specs
 from sim.stream import LoopStream
-from stiction import zenoh_config
 
 PREFIX = "bench/throughput"
 
@@ -161,7 +161,7 @@ def run_throughput(
     n_live = int(seconds * speed)
     ids = [f"b{i:05d}" for i in range(loops)]
     head, live, process = _loops(mix, loops, window, n_live)
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     received: list[tuple[str, float, float]] = []  # loop, t_end_s, arrival
     verdicts: dict[str, int] = {}
     # stiction reports with S and J; those of them read from their own window
@@ -179,7 +179,7 @@ def run_throughput(
 
     health: dict[str, dict] = {}
     procs = []
-    with zenoh.open(zenoh_config.build([endpoint])) as session:
+    with zenoh.open(zenoh_session.build([endpoint])) as session:
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
         hsub = session.declare_subscriber(
             f"{PREFIX}/agent/*/health", lambda s: health.__setitem__(str(s.key_expr), json.loads(s.payload.to_bytes()))
@@ -199,7 +199,7 @@ def run_throughput(
                         "--connect",
                         endpoint,
                         "--listen",
-                        zenoh_config.free_loopback_endpoint(),
+                        zenoh_session.free_loopback_endpoint(),
                         "--window",
                         str(window),
                         "--report-every",

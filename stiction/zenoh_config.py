@@ -1,16 +1,13 @@
-"""Zenoh configuration for every process: a file, then flags, then fixed overrides, in one helper.
-
-Peer mode; multicast scouting off (it reaches beyond loopback); listen on
-loopback unless told otherwise.  ``add_arguments`` gives every command the same flags.
-"""
+"""The command line's Zenoh flags: every command gets the same ones (``add_arguments``), and the
+publishers theirs; the session they open is ``bridge.zenoh_session``'s (peer mode, multicast
+scouting off, listening on loopback unless told otherwise)."""
 
 from __future__ import annotations
 
 import argparse
-import json
-import socket
 from pathlib import Path
 
+from bridge.zenoh_session import build, open_session
 from schemas import keys
 from schemas.errors import InputError
 
@@ -53,60 +50,12 @@ def publisher(args, session):
     return SamplePublisher(session, args.prefix, sharded=not args.unsharded, keep_samples=args.history)
 
 
-def free_loopback_port() -> int:
-    """A TCP port on 127.0.0.1 that nothing listens on now (for Zenoh, or an OPC UA server in tests)."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def free_loopback_endpoint() -> str:
-    return f"tcp/127.0.0.1:{free_loopback_port()}"
-
-
-def build(listen: list[str] | None = None, connect: list[str] | None = None, config_file: Path | None = None):
-    """A ``zenoh.Config``; with neither endpoint given, listen on a free loopback port."""
-    import zenoh
-
-    if config_file is not None:
-        try:
-            cfg = zenoh.Config.from_file(str(config_file))
-        except Exception as e:  # zenoh raises its own error types for unreadable files
-            raise InputError(f"{config_file}: not a Zenoh configuration ({e})") from None
-    else:
-        cfg = zenoh.Config()
-        cfg.insert_json5("mode", '"peer"')
-        cfg.insert_json5("scouting/multicast/enabled", "false")
-        if not listen and not connect:
-            listen = [free_loopback_endpoint()]
-    try:
-        if listen:
-            cfg.insert_json5("listen/endpoints", json.dumps(listen))
-        if connect:
-            cfg.insert_json5("connect/endpoints", json.dumps(connect))
-    except Exception as e:
-        raise InputError(f"bad Zenoh endpoint in {listen or connect}: {e}") from None
-    return cfg
-
-
 def from_args(args: argparse.Namespace):
     try:
         keys.check_prefix(args.prefix)
     except ValueError as e:
         raise InputError(str(e)) from None
     return build(args.listen, args.connect, args.config)
-
-
-def open_session(cfg, endpoints: str = ""):
-    """``zenoh.open`` with its errors (bad endpoint, port in use, ...) as one-line input errors."""
-    import zenoh
-
-    try:
-        return zenoh.open(cfg)
-    except zenoh.ZError as e:
-        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        where = f" ({endpoints})" if endpoints else ""
-        raise InputError(f"cannot open a Zenoh session{where}: {first.split(' at /')[0]}") from None
 
 
 def open_from_args(args: argparse.Namespace):

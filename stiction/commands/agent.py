@@ -8,6 +8,7 @@ import os
 import socket
 from pathlib import Path
 
+from bridge import zenoh_session
 from schemas import keys
 from schemas.errors import InputError
 from stiction import zenoh_config
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if not args.listen and not args.connect and args.config is None:
         args.connect = [DEFAULT_ENDPOINT]
-        args.listen = [zenoh_config.free_loopback_endpoint()]
+        args.listen = [zenoh_session.free_loopback_endpoint()]
     agent_id = args.agent_id or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
     core = CoreSettings(
         prefix=args.prefix,

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bridge import zenoh_session
 from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.agent import open_sink
@@ -184,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.loops < 1 or args.seconds <= 0 or args.speed <= 0:
         raise InputError("--loops, --seconds and --speed must be positive")
-    endpoint = (args.listen or [zenoh_config.free_loopback_endpoint()])[0]
+    endpoint = (args.listen or [zenoh_session.free_loopback_endpoint()])[0]
     zenoh_config.from_args(args)  # validates prefix and config flags
     stop = stop_on_signals()
     sim_settings = PublisherSettings(
@@ -202,12 +203,12 @@ def run(args: argparse.Namespace) -> int:
     )
     sink = open_sink(None if args.rerun == "none" else args.rerun)
     with (
-        zenoh_config.open_session(zenoh_config.build([endpoint])) as sim_s,
-        zenoh_config.open_session(
-            zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])
+        zenoh_session.open_session(zenoh_session.build([endpoint])) as sim_s,
+        zenoh_session.open_session(
+            zenoh_session.build(connect=[endpoint], listen=[zenoh_session.free_loopback_endpoint()])
         ) as agent_s,
-        zenoh_config.open_session(
-            zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])
+        zenoh_session.open_session(
+            zenoh_session.build(connect=[endpoint], listen=[zenoh_session.free_loopback_endpoint()])
         ) as dash_s,
     ):
         dashboard = Dashboard(dash_s, args.prefix)

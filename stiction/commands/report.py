@@ -88,8 +88,9 @@ def _default_prefix() -> str:
 
 
 def _from_stream(args: argparse.Namespace):
+    from bridge import zenoh_session
     from schemas import keys
-    from stiction import page, zenoh_config
+    from stiction import page
     from stiction.dashboard import latest_reports
 
     prefix = args.prefix or _default_prefix()
@@ -99,8 +100,8 @@ def _from_stream(args: argparse.Namespace):
         raise InputError(str(e)) from None
     if args.timeout <= 0:
         raise InputError(f"--timeout {args.timeout:g}: seconds, more than 0")
-    cfg = zenoh_config.build(listen=None, connect=[args.endpoint])
-    session = zenoh_config.open_session(cfg, f"connect {args.endpoint}")
+    cfg = zenoh_session.build(listen=None, connect=[args.endpoint])
+    session = zenoh_session.open_session(cfg, f"connect {args.endpoint}")
     try:
         latest, bad = latest_reports(session, prefix, args.timeout)
     finally:

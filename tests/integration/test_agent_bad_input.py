@@ -10,6 +10,7 @@ import zenoh
 
 from agent.core import CoreSettings
 from agent.service import AgentService, AgentSettings
+from bridge import zenoh_session
 from bridge.publish import encode
 from quantify.pipeline import Window
 from schemas import keys
@@ -17,7 +18,6 @@ from schemas.report import StictionReport
 from sim.grid import case_specs
 from sim.publisher import batch
 from sim.stream import LoopStream
-from stiction import zenoh_config
 from tests.integration.conftest import wait_until
 
 PREFIX = "test/bad"
@@ -27,10 +27,10 @@ GOOD = ["C2", "C4", "N6"]
 
 @pytest.fixture
 def stack(quantifier):
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     with (
-        zenoh.open(zenoh_config.build([endpoint])) as pub,
-        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as s,
+        zenoh.open(zenoh_session.build([endpoint])) as pub,
+        zenoh.open(zenoh_session.build(connect=[endpoint], listen=[zenoh_session.free_loopback_endpoint()])) as s,
     ):
         settings = AgentSettings(
             agent_id="t1",

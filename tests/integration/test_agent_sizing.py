@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from bridge import zenoh_session
 from schemas import keys
 from schemas.report import StictionReport
-from stiction import zenoh_config
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
@@ -24,7 +24,7 @@ def test_a_replayed_sticky_plant_window_gets_its_process_identified_and_s_and_j_
     if not files:
         pytest.skip(f"the measured plant data is not at {PLANT}")
     shutil.copy(files[0], tmp_path / "fic.csv")
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     reports: list[StictionReport] = []
     lock = threading.Lock()
 
@@ -33,17 +33,17 @@ def test_a_replayed_sticky_plant_window_gets_its_process_identified_and_s_and_j_
             reports.append(StictionReport.model_validate_json(sample.payload.to_bytes()))
 
     procs = {}
-    with zenoh.open(zenoh_config.build([endpoint])) as session:
+    with zenoh.open(zenoh_session.build([endpoint])) as session:
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
         try:
             common = ["--prefix", PREFIX, "--connect", endpoint]
             procs["agent"] = start_cli("agent", "--first-window", "700", "--report-every", "50", "--size-every", "1",
-                                       *common, "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+                                       *common, "--listen", zenoh_session.free_loopback_endpoint())  # fmt: skip
             wait_until(
                 lambda: any(r.ok for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)), 30, "agent"
             )
             procs["replay"] = start_cli("replay", str(tmp_path), "--speed", "2000", "--rate", "4", *common,
-                                        "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+                                        "--listen", zenoh_session.free_loopback_endpoint())  # fmt: skip
             assert procs["replay"].wait(timeout=60) == 0
 
             wait_until(lambda: any(r.verdict == "stiction" for r in reports), 30, "a sticky report")

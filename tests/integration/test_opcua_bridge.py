@@ -15,10 +15,10 @@ import time
 import pytest
 import zenoh
 
+from bridge import zenoh_session
 from bridge.loopfile import dumps, load
 from schemas import keys
 from schemas.report import StictionReport
-from stiction import zenoh_config
 from tests.integration.conftest import start_cli, wait_until
 
 pytest.importorskip("asyncua")
@@ -29,8 +29,8 @@ SPEED = 10  # a sample every 0.1 s
 
 
 def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
-    endpoint = zenoh_config.free_loopback_endpoint()
-    opc = f"opc.tcp://127.0.0.1:{zenoh_config.free_loopback_port()}"
+    endpoint = zenoh_session.free_loopback_endpoint()
+    opc = f"opc.tcp://127.0.0.1:{zenoh_session.free_loopback_port()}"
     served = tmp_path / "served.toml"
     plant_args = ["plant", "--loops", str(LOOPS), "--endpoint", opc, "--speed", str(SPEED), "--loop-file", str(served),
                   "--fault-every", "40"]  # a sensor fault on plant-00000's PV every 4 s  # fmt: skip
@@ -56,7 +56,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
         loop_file = tmp_path / "loops.toml"
         loop_file.write_text(dumps(plan.model_copy(update={"loops": plan.loops | {"broken": broken}})))
 
-        with zenoh.open(zenoh_config.build([endpoint])) as session:
+        with zenoh.open(zenoh_session.build([endpoint])) as session:
             subs = [
                 session.declare_subscriber(keys.all_reports(PREFIX), on_report),
                 session.declare_subscriber(f"{PREFIX}/bridge/*/health", on_health),
@@ -74,7 +74,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
                 "2",
                 *common,
                 "--listen",
-                zenoh_config.free_loopback_endpoint(),
+                zenoh_session.free_loopback_endpoint(),
             )
             procs["agent"] = start_cli(
                 "agent",
@@ -88,7 +88,7 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
                 "20",
                 *common,
                 "--listen",
-                zenoh_config.free_loopback_endpoint(),
+                zenoh_session.free_loopback_endpoint(),
             )
             served_ids = set(plan.loops)
             wait_until(lambda: served_ids <= set(reports), 90, lambda: f"a report of every loop, have {set(reports)}")

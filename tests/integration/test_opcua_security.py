@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from bridge import zenoh_session
 from schemas import keys
-from stiction import zenoh_config
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 pytest.importorskip("asyncua")
@@ -38,9 +38,9 @@ def _certificates(folder: Path) -> None:
 
 def test_the_bridge_reads_a_secure_server_with_its_certificate_and_is_refused_without(tmp_path):
     _certificates(tmp_path)
-    opc = f"opc.tcp://127.0.0.1:{zenoh_config.free_loopback_port()}"
+    opc = f"opc.tcp://127.0.0.1:{zenoh_session.free_loopback_port()}"
     loop_file = tmp_path / "loops.toml"
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     procs = {
         "plant": start_cli(
             "plant",
@@ -69,13 +69,13 @@ def test_the_bridge_reads_a_secure_server_with_its_certificate_and_is_refused_wi
         wait_until(loop_file.exists, 60, "the plant's loop file")
         insecure = subprocess.run(
             [sys.executable, "-m", "stiction.cli", "bridge", "opcua", "--loop-file", str(loop_file),
-             "--listen", zenoh_config.free_loopback_endpoint(), "--prefix", PREFIX],
+             "--listen", zenoh_session.free_loopback_endpoint(), "--prefix", PREFIX],
             capture_output=True, text=True, timeout=60,
         )  # fmt: skip
         assert insecure.returncode == 2
         err = [x for x in insecure.stderr.splitlines() if x.startswith("stiction bridge: error:")]
         assert len(err) == 1 and "refused the bridge" in err[0], insecure.stderr
-        with zenoh.open(zenoh_config.build([endpoint])) as session:
+        with zenoh.open(zenoh_session.build([endpoint])) as session:
             sub = session.declare_subscriber(keys.samples_any(PREFIX), on_samples)
             security = f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'client-cert.der'},{tmp_path / 'client-key.pem'}"
             procs["bridge"] = start_cli("bridge", "opcua", "--loop-file", str(loop_file), "--security", security,

@@ -5,17 +5,17 @@ import threading
 import numpy as np
 import zenoh
 
+from bridge import zenoh_session
 from bridge.publish import SamplePublisher
 from schemas import keys
 from schemas.messages import SampleBatch
-from stiction import zenoh_config
 from tests.integration.conftest import wait_until
 
 PREFIX = "test/history"
 
 
 def test_an_agent_subscribed_to_one_shard_gets_only_its_loops_and_their_history_on_get():
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     loops = [f"FIC{i}" for i in range(30)]
     shard = keys.shard_of(loops[0])
     mine = {lid for lid in loops if keys.shard_of(lid) == shard}
@@ -27,8 +27,8 @@ def test_an_agent_subscribed_to_one_shard_gets_only_its_loops_and_their_history_
             got.append(SampleBatch.model_validate_json(sample.payload.to_bytes()).loop_id)
 
     with (
-        zenoh.open(zenoh_config.build([endpoint])) as pub_s,
-        zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as sub_s,
+        zenoh.open(zenoh_session.build([endpoint])) as pub_s,
+        zenoh.open(zenoh_session.build(connect=[endpoint], listen=[zenoh_session.free_loopback_endpoint()])) as sub_s,
     ):
         sub = sub_s.declare_subscriber(keys.shard_samples(PREFIX, shard), on_sample)
         out = SamplePublisher(pub_s, PREFIX, keep_samples=40)

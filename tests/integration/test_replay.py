@@ -10,9 +10,9 @@ from pathlib import Path
 
 import zenoh
 
+from bridge import zenoh_session
 from schemas import keys
 from schemas.report import StictionReport
-from stiction import zenoh_config
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
@@ -28,7 +28,7 @@ def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path
     for f in files:
         shutil.copy(f, tmp_path / f.name)
     (tmp_path / "broken.csv").write_text("op,pv\n1,2\n")
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     reports: dict[str, StictionReport] = {}
     lock = threading.Lock()
 
@@ -38,17 +38,17 @@ def test_replayed_plant_windows_are_reported_and_a_broken_file_is_named(tmp_path
             reports[r.loop_id] = r
 
     procs = {}
-    with zenoh.open(zenoh_config.build([endpoint])) as session:
+    with zenoh.open(zenoh_session.build([endpoint])) as session:
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
         try:
             common = ["--prefix", PREFIX, "--connect", endpoint]
             procs["agent"] = start_cli("agent", "--first-window", "200", "--report-every", "100", *common,
-                                    "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+                                    "--listen", zenoh_session.free_loopback_endpoint())  # fmt: skip
             wait_until(
                 lambda: any(r.ok for r in session.liveliness().get(keys.all_agents(PREFIX), timeout=1)), 30, "agent"
             )
             procs["replay"] = start_cli("replay", str(tmp_path), "--speed", "2000", "--rate", "4", *common,
-                                     "--listen", zenoh_config.free_loopback_endpoint())  # fmt: skip
+                                     "--listen", zenoh_session.free_loopback_endpoint())  # fmt: skip
             assert procs["replay"].wait(timeout=60) == 1  # one file could not be read
             err = procs["replay"].stderr.read()
             assert "broken.csv" in err and len([x for x in err.splitlines() if "error" in x]) == 1

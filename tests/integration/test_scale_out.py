@@ -13,10 +13,10 @@ import time
 
 import zenoh
 
+from bridge import zenoh_session
 from schemas import keys
 from schemas.messages import AgentHealth
 from schemas.report import StictionReport
-from stiction import zenoh_config
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PREFIX = "test/scale"
@@ -24,7 +24,7 @@ LOOPS = 12
 
 
 def test_two_agents_share_loops_and_take_over(tmp_path):
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     common = ["--prefix", PREFIX]
     agent_args = ["--window", "200", "--report-every", "50", "--connect", endpoint, *common]
     procs = {}
@@ -42,13 +42,13 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
         h = AgentHealth.model_validate_json(sample.payload.to_bytes())
         health[h.agent_id] = h
 
-    with zenoh.open(zenoh_config.build([endpoint])) as session:
+    with zenoh.open(zenoh_session.build([endpoint])) as session:
         sub = session.declare_subscriber(keys.all_reports(PREFIX), on_report)
         hsub = session.declare_subscriber(f"{PREFIX}/agent/*/health", on_health)
         try:
             for name in ("agent-a", "agent-b"):
                 procs[name] = start_cli(
-                    "agent", "--agent-id", name, "--listen", zenoh_config.free_loopback_endpoint(), *agent_args
+                    "agent", "--agent-id", name, "--listen", zenoh_session.free_loopback_endpoint(), *agent_args
                 )
 
             def alive():
@@ -70,7 +70,7 @@ def test_two_agents_share_loops_and_take_over(tmp_path):
                 "--connect",
                 endpoint,
                 "--listen",
-                zenoh_config.free_loopback_endpoint(),
+                zenoh_session.free_loopback_endpoint(),
                 *common,
             )
             wait_until(

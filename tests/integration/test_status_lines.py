@@ -8,7 +8,7 @@ import threading
 
 import zenoh
 
-from stiction import zenoh_config
+from bridge import zenoh_session
 from stiction.cli import build_parser
 from tests.integration.conftest import start_cli, wait_until
 
@@ -18,7 +18,7 @@ PREFIX = "test/status"
 def test_sim_and_agent_print_status_lines_and_the_health_carries_the_rates():
     parser = build_parser()
     assert parser.parse_args(["sim"]).status_every == parser.parse_args(["agent"]).status_every == 10.0
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     health = []
     seen = threading.Event()
 
@@ -28,10 +28,10 @@ def test_sim_and_agent_print_status_lines_and_the_health_carries_the_rates():
         if h["reports"]:
             seen.set()
 
-    with zenoh.open(zenoh_config.build(connect=[endpoint], listen=[zenoh_config.free_loopback_endpoint()])) as s:
+    with zenoh.open(zenoh_session.build(connect=[endpoint], listen=[zenoh_session.free_loopback_endpoint()])) as s:
         sim = start_cli("sim", "--loops", "5", "--speed", "100", "--listen", endpoint, "--prefix", PREFIX,
                      "--status-every", "1")  # fmt: skip
-        agent = start_cli("agent", "--connect", endpoint, "--listen", zenoh_config.free_loopback_endpoint(),
+        agent = start_cli("agent", "--connect", endpoint, "--listen", zenoh_session.free_loopback_endpoint(),
                        "--prefix", PREFIX, "--status-every", "1", "--window", "300", "--report-every", "50",
                        "--first-window", "100")  # fmt: skip
         sub = s.declare_subscriber(f"{PREFIX}/agent/*/health", on_health)

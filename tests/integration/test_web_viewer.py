@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stiction import zenoh_config
+from bridge import zenoh_session
 
 ROOT = Path(__file__).resolve().parents[2]
 PLAYWRIGHT = ROOT / "build" / "browser" / "node_modules" / "playwright-core"
@@ -20,7 +20,7 @@ SHOT_JS = Path(__file__).with_name("web_viewer_shot.js")
 
 
 def _port() -> int:
-    return int(zenoh_config.free_loopback_endpoint().rsplit(":", 1)[1])
+    return int(zenoh_session.free_loopback_endpoint().rsplit(":", 1)[1])
 
 
 @pytest.mark.skipif(shutil.which("chromium") is None, reason="no Debian chromium (bash scripts/test installs it)")

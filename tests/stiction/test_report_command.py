@@ -98,10 +98,10 @@ def test_the_latest_reports_of_a_live_key_space_make_the_same_page(tmp_path):
     """An agent's key space, answered by a queryable as the agent does; ``report --from`` collects it."""
     import zenoh
 
+    from bridge import zenoh_session
     from schemas import keys
-    from stiction import zenoh_config
 
-    endpoint = zenoh_config.free_loopback_endpoint()
+    endpoint = zenoh_session.free_loopback_endpoint()
     prefix = "test/report"
     latest = {
         "FIC1": _report("FIC1", "stiction", s_pct=3.0, s_se_pct=0.4, j_pct=1.0, j_se_pct=0.3, t_end_s=100.0),
@@ -114,7 +114,7 @@ def test_the_latest_reports_of_a_live_key_space_make_the_same_page(tmp_path):
             query.reply(keys.report(prefix, loop_id), r.model_dump_json().encode(), encoding=json_encoding)
         query.reply(keys.report(prefix, "junk"), b"{not json", encoding=json_encoding)
 
-    session = zenoh.open(zenoh_config.build(listen=[endpoint]))
+    session = zenoh.open(zenoh_session.build(listen=[endpoint]))
     try:
         queryable = session.declare_queryable(keys.all_reports(prefix), answer)
         out = tmp_path / "live"

@@ -1,0 +1,62 @@
+"""Zenoh sessions for every process: peer mode on loopback, explicit endpoints, multicast scouting off.
+
+``build`` makes the configuration (a file, then endpoints, then fixed overrides), ``open_session``
+opens it with Zenoh's errors as one-line input errors; the command line's flags for them are in
+``stiction.zenoh_config``.
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+from pathlib import Path
+
+from schemas.errors import InputError
+
+
+def free_loopback_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on now (for Zenoh, or an OPC UA server in tests)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def free_loopback_endpoint() -> str:
+    return f"tcp/127.0.0.1:{free_loopback_port()}"
+
+
+def build(listen: list[str] | None = None, connect: list[str] | None = None, config_file: Path | None = None):
+    """A ``zenoh.Config``; with neither endpoint given, listen on a free loopback port."""
+    import zenoh
+
+    if config_file is not None:
+        try:
+            cfg = zenoh.Config.from_file(str(config_file))
+        except Exception as e:  # zenoh raises its own error types for unreadable files
+            raise InputError(f"{config_file}: not a Zenoh configuration ({e})") from None
+    else:
+        cfg = zenoh.Config()
+        cfg.insert_json5("mode", '"peer"')
+        cfg.insert_json5("scouting/multicast/enabled", "false")
+        if not listen and not connect:
+            listen = [free_loopback_endpoint()]
+    try:
+        if listen:
+            cfg.insert_json5("listen/endpoints", json.dumps(listen))
+        if connect:
+            cfg.insert_json5("connect/endpoints", json.dumps(connect))
+    except Exception as e:
+        raise InputError(f"bad Zenoh endpoint in {listen or connect}: {e}") from None
+    return cfg
+
+
+def open_session(cfg, endpoints: str = ""):
+    """``zenoh.open`` with its errors (bad endpoint, port in use, ...) as one-line input errors."""
+    import zenoh
+
+    try:
+        return zenoh.open(cfg)
+    except zenoh.ZError as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        where = f" ({endpoints})" if endpoints else ""
+        raise InputError(f"cannot open a Zenoh session{where}: {first.split(' at /')[0]}") from None
