@@ -134,3 +134,40 @@ def bench_accuracy(
         "thesis_mlp_chaos_floor": chaos_floor(quantifier),
         "thesis_reported_mae_pp": {"C1-C10": 0.65, "N1-N10": 1.85},
     }
+
+
+def print_table(figures: dict) -> None:
+    """The figures as text: each method's error and time per set, the share called sticky, the chaos floor."""
+    sets = ["C1-C10", "N1-N10", "holdout"]
+    print(
+        "mean absolute error, percentage points of 500 lbf over fs and fd (thesis Tables 5.1, 5.2); CPU time per loop"
+    )
+    print(f"{'method':55s}" + "".join(f"{s:>22s}" for s in sets))
+    for key, label in METHODS.items():
+        row = figures["methods"].get(key)
+        if not row:
+            continue
+        cells = "".join(f"{row[s]['mae_pp']:>9.2f} pp {row[s]['s_per_loop'] * 1e3:>7.1f} ms" for s in sets)
+        print(f"{label:55s}{cells}")
+    n = {s: figures["methods"]["b_pipeline"][s]["n"] for s in sets}
+    print(f"{'loops':55s}" + "".join(f"{n[s]:>22d}" for s in sets))
+    for key in ("b_pipeline", "b_no_flags"):  # every loop is sticky: a withheld number is a miss
+        row = figures["methods"][key]
+        cells = "".join(
+            f"{100 * row[s]['called_sticky']:>6.1f} % {row[s]['mae_misses_counted_pp']:>9.2f} pp" for s in sets
+        )
+        label = {"b_pipeline": "(b)", "b_no_flags": "(b) no flags"}[key] + " called sticky; MAE, misses as zero"
+        print(f"{label:55s}{cells}")
+    print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
+    found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
+    cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)
+    print(f"without flags, identified as the thesis's level loop: {cells}")
+    used = {s: figures["methods"]["b_pipeline"][s]["methods"] for s in sets}
+    print(
+        "(b) used: " + "; ".join(f"{s}: " + ", ".join(f"{k} {v}" for k, v in u.items() if v) for s, u in used.items())
+    )
+    floor = figures["thesis_mlp_chaos_floor"]
+    print(
+        f"thesis MLP on its own 1275 training patterns {floor['training_realisation']:.2f} pp, on fresh "
+        f"realisations of the same grid points {floor['fresh_realisation']:.2f} pp (the chaos floor)"
+    )

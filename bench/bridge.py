@@ -160,3 +160,27 @@ def _restart(procs, plant_args, loop_file: Path, arrivals, lock, loops: int) -> 
         "restart_resume_s": max(first_after) - up,
         "restart_resume_p50_s": float(np.median(np.array(first_after) - up)),
     }
+
+
+def print_table(f: dict) -> None:
+    """The figures as text."""
+    print(f"{f['loops']} loops at 1 Hz from an OPC UA server through one bridge, {f['seconds']:.0f} s steady")
+    print(
+        f"  samples received {f['samples_received']} ({f['samples_per_s']:.0f}/s), lost {f['samples_lost']}, "
+        f"loops seen {f['loops_seen']}"
+    )
+    print(f"  latency grid time -> subscriber: p50 {f['latency_p50_s']:.2f} s, p99 {f['latency_p99_s']:.2f} s")
+    print(
+        f"  bridge CPU {f['bridge_cores']:.0%} of a core, peak RSS {f['bridge_peak_rss_mb']:.0f} MB "
+        f"(plant server {f['plant_cores']:.0%})"
+    )
+    print(f"  {f['plant_status'] or 'plant: no status line'}")
+    print(
+        f"  bridge reconnects in the steady phase {f.get('bridge_reconnects_steady', '?')}, "
+        f"values dropped {f.get('bridge_dropped') or 'none'}"
+    )
+    if "restart_resume_s" in f:
+        print(
+            f"  server restart: down {f['restart_server_down_s']:.1f} s; every loop's samples back "
+            f"{f['restart_resume_s']:.1f} s after the server was up (median {f['restart_resume_p50_s']:.1f} s)"
+        )

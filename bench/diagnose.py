@@ -193,3 +193,49 @@ def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progre
         if progress:
             progress(c, out[c])
     return out
+
+
+def print_header(per_cause: int) -> None:
+    print(f"diagnose on {per_cause} generated loops per cause (noise 1-4 % of PV RMS, OP/PV only)")
+    print(
+        f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
+        f"{'in 2se':>6s} {'s/loop':>6s}"
+    )
+    print(f"{'':22s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} {'(CPU)':>6s}")
+
+
+def print_row(c: str, s: dict) -> None:
+    """One cause's figures, as ``bench_diagnose`` finishes it (its ``progress``)."""
+    first = ", ".join(f"{k} {v}" for k, v in sorted(s["first_named"].items(), key=lambda kv: -kv[1]))
+    param = "-" if s["param_rel_err_median"] is None else f"{100 * s['param_rel_err_median']:.0f} %"
+    within = s["fs_fd_within_2se_share"]
+    cover = "-" if within is None else f"{100 * within:.0f} %"
+    print(
+        f"{c:22s} {100 * s['named_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
+        f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} "
+        f"{s['fs_fd_read_extended']:3d}/{s['n']:<3d} {cover:>6s} {s['s_per_loop_median']:6.1f}   "
+        f"first named: {first}",
+        flush=True,
+    )
+
+
+def print_retrained_header() -> None:
+    print("quantify (learned pipeline, no process declared) on loops with each effect at its middle value:")
+
+
+def print_retrained(c: str, s: dict) -> None:
+    """One cause's retrained figures, as ``bench_retrained`` finishes it (its ``progress``)."""
+    print(
+        f"  {c:22s} quantify with canonical models {s['quantify_canonical_mae_pp']:6.2f} pp, "
+        f"retrained on {s['extension']} {s['quantify_retrained_mae_pp']:6.2f} pp (n={s['n']})",
+        flush=True,
+    )
+
+
+def print_overall(figures: dict) -> None:
+    o = figures["overall"]
+    print(
+        f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} %, canonical loops given a cause "
+        f"{100 * (o['none_given_a_cause'] or 0):.0f} %, fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
+        f"{o['fs_fd_mae_extended_pp']:.2f} pp extended, {o['s_per_loop_median']:.1f} s per loop (median)"
+    )

@@ -105,3 +105,13 @@ def markdown(figures: dict) -> str:
             f"{r['stiction_delta_criterion']:.0f} |"
         )
     return "\n".join(lines)
+
+
+def print_summary(figures: dict) -> None:
+    """The run's summary as text: stiction's place by BIC against the labels, the causes named."""
+    s = figures["summary"]
+    c = s["stiction_earns_its_place"]
+    print(f"{s['loops']} loops, {s['labelled']} labelled; stiction earns its place (BIC): "
+          f"{c['true_positive']} of {c['true_positive'] + c['false_negative']} labelled sticky, "
+          f"{c['false_positive']} of {c['false_positive'] + c['true_negative']} labelled not")  # fmt: skip
+    print("causes named: " + ", ".join(f"{k} {v}" for k, v in sorted(s["causes"].items(), key=lambda kv: -kv[1])))

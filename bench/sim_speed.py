@@ -103,3 +103,27 @@ def bench_agreement(intervals: int = 220) -> dict:
         "min_slips_per_case": min(r[2] for r in rows.values()),
         "per_case": {n: {"mv_diff_pct": r[0], "pv_diff_pct": r[1], "slips": r[2]} for n, r in rows.items()},
     }
+
+
+def print_table(figures: dict) -> None:
+    """The figures as text (``repeats`` and ``reference_loops``: the run's settings, in the figures)."""
+    print(f"grid: {figures['loops']} loops x {figures['duration_s']:.0f} s, physical valve, one core")
+    print(
+        f"  fast simulator     {figures['grid_s']:8.2f} s  ({figures['grid_loops_per_s']:.0f} loops/s,"
+        f" median of {figures['repeats']})"
+    )
+    print(
+        f"  ODE reference      {figures['reference_s']:8.0f} s  ({figures['reference_s_per_loop']:.1f} s/loop"
+        f" over {figures['reference_loops']} grid points, extrapolated)"
+    )
+    print(
+        f"  speedup            {figures['speedup']:8.0f} x  (same loops one at a time:"
+        f" {figures['speedup_single_loop']:.0f} x)"
+    )
+    if "agreement" in figures:
+        a = figures["agreement"]
+        print(
+            f"  one interval from the reference's state, 20 test cases x {a['intervals_per_case']} samples:"
+            f" worst MV difference {a['worst_mv_diff_pct']:.1e} % of span (spec: < 0.05 %),"
+            f" worst PV difference {a['worst_pv_diff_pct']:.1e} %, >= {a['min_slips_per_case']} slips a case"
+        )

@@ -96,28 +96,6 @@ def _loops(mix: str, n: int, window: int, n_live: int):
     return part(0, window), part(window, total), None
 
 
-GOALS = {"latency_p99_s": 1.0, "agent_cpu_share": 0.6, "agent_peak_rss_mb": 500.0}
-"""The plant-scale goals per agent: p99 from a window's last sample to its report, cores, MB; and no
-sample lost, every expected report made."""
-
-
-def missed_goals(f: dict) -> list[str]:
-    """The goals a run missed, each in a few words (none: it holds them)."""
-    out = []
-    p99 = f["latency_p99_s"]  # every report of the live phase, the first interval's too
-    if p99 is None or p99 >= GOALS["latency_p99_s"]:
-        out.append(f"p99 {p99 if p99 is None else round(p99, 2)} s")
-    if f["samples_lost"]:
-        out.append(f"{f['samples_lost']} samples lost")
-    if f["reports"] < f["reports_expected"]:
-        out.append(f"{f['reports']} of {f['reports_expected']} reports")
-    if max(f["agent_cpu_share"]) >= GOALS["agent_cpu_share"]:
-        out.append(f"{max(f['agent_cpu_share']):.2f} of a core")
-    if f["agent_peak_rss_mb"] >= GOALS["agent_peak_rss_mb"]:
-        out.append(f"{f['agent_peak_rss_mb']:.0f} MB")
-    return out
-
-
 def _profile(health: dict[str, dict]) -> dict[str, float]:
     """The agents' CPU seconds by stage (their health messages), summed over agents."""
     total: dict[str, float] = {}

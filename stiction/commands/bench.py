@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import sys
 from pathlib import Path
 
@@ -108,20 +106,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     a.add_argument("--json", action="store_true")
 
 
-def _machine() -> dict:
-    cpu = _cpu_model()
-    return {"python": platform.python_version(), "cpus": os.cpu_count(), "cpu": cpu, "machine": platform.machine()}
+def _host(figures: dict) -> dict:
+    from bench.host import machine
+
+    return figures | {"host": machine()}
 
 
-def _cpu_model() -> str:
-    """The CPU's model name (machines of one kind differ up to 2x: every figure names it)."""
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-    except OSError:
-        return platform.processor() or "unknown"
-    info = dict(line.split(":", 1) for line in lines if ":" in line)
-    name = {k.strip(): v.strip() for k, v in info.items()}
-    return f"{name.get('model name', 'unknown')} (family {name.get('cpu family', '?')} model {name.get('model', '?')})"
+def _emit(args, figures: dict, print_text) -> None:
+    """``--json``: the figures as one JSON object; else the benchmark's own text."""
+    if args.json:
+        _print_json(figures)
+    else:
+        print_text(figures)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -129,35 +125,20 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sim(args) -> None:
-    from bench.sim_speed import bench_agreement, bench_sim
+def _existing(paths: list[Path]) -> None:
+    missing = [str(f) for f in paths if not f.exists()]
+    if missing:
+        raise InputError(f"{', '.join(missing)}: no such folder or file")
 
-    figures = bench_sim(reference_loops=args.reference_loops, repeats=args.repeats) | {"host": _machine()}
+
+def _sim(args) -> None:
+    from bench.sim_speed import bench_agreement, bench_sim, print_table
+
+    figures = _host(bench_sim(reference_loops=args.reference_loops, repeats=args.repeats))
+    figures |= {"repeats": args.repeats, "reference_loops": args.reference_loops}
     if not args.no_agreement:
         figures["agreement"] = bench_agreement()
-    if args.json:
-        _print_json(figures)
-    else:
-        print(f"grid: {figures['loops']} loops x {figures['duration_s']:.0f} s, physical valve, one core")
-        print(
-            f"  fast simulator     {figures['grid_s']:8.2f} s  ({figures['grid_loops_per_s']:.0f} loops/s,"
-            f" median of {args.repeats})"
-        )
-        print(
-            f"  ODE reference      {figures['reference_s']:8.0f} s  ({figures['reference_s_per_loop']:.1f} s/loop"
-            f" over {args.reference_loops} grid points, extrapolated)"
-        )
-        print(
-            f"  speedup            {figures['speedup']:8.0f} x  (same loops one at a time:"
-            f" {figures['speedup_single_loop']:.0f} x)"
-        )
-        if "agreement" in figures:
-            a = figures["agreement"]
-            print(
-                f"  one interval from the reference's state, 20 test cases x {a['intervals_per_case']} samples:"
-                f" worst MV difference {a['worst_mv_diff_pct']:.1e} % of span (spec: < 0.05 %),"
-                f" worst PV difference {a['worst_pv_diff_pct']:.1e} %, >= {a['min_slips_per_case']} slips a case"
-            )
+    _emit(args, figures, print_table)
 
 
 def _sizing(args) -> None:
@@ -165,50 +146,30 @@ def _sizing(args) -> None:
 
     if args.loops < 1 or args.workers < 1:
         raise InputError(f"--loops {args.loops} --workers {args.workers}: need at least 1 each")
-    figures = bench_sizing(args.loops, args.seed, args.workers) | {"host": _machine()}
-    if args.json:
-        _print_json(figures)
-    else:
-        print_table(figures)
+    _emit(args, _host(bench_sizing(args.loops, args.seed, args.workers)), print_table)
 
 
 def _detect(args) -> None:
     from bench.detect import bench_detect, print_table
 
-    missing = [str(f) for f in args.measured if not f.exists()]
-    if missing:
-        raise InputError(f"{', '.join(missing)}: no such folder or file")
+    _existing(args.measured)
     if args.loops < 1:
         raise InputError(f"--loops {args.loops}: need at least 1")
-    figures = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed) | {"host": _machine()}
-    if args.json:
-        _print_json(figures)
-    else:
-        print_table(figures)
+    _emit(args, _host(bench_detect(args.measured, n_per_class=args.loops, seed=args.seed)), print_table)
 
 
 def _measured(args) -> None:
-    from bench.measured import bench_measured, markdown
+    from bench.measured import bench_measured, markdown, print_summary
 
-    missing = [str(f) for f in args.folders if not f.exists()]
-    if missing:
-        raise InputError(f"{', '.join(missing)}: no such folder or file")
-    figures = bench_measured(args.folders, args.workers) | {"host": _machine()}
-    if args.json:
-        _print_json(figures)
-        return
-    if args.markdown:
+    _existing(args.folders)
+    figures = _host(bench_measured(args.folders, args.workers))
+    if args.markdown and not args.json:
         print(markdown(figures))
-    s = figures["summary"]
-    c = s["stiction_earns_its_place"]
-    print(f"{s['loops']} loops, {s['labelled']} labelled; stiction earns its place (BIC): "
-          f"{c['true_positive']} of {c['true_positive'] + c['false_negative']} labelled sticky, "
-          f"{c['false_positive']} of {c['false_positive'] + c['true_negative']} labelled not")  # fmt: skip
-    print("causes named: " + ", ".join(f"{k} {v}" for k, v in sorted(s["causes"].items(), key=lambda kv: -kv[1])))
+    _emit(args, figures, print_summary)
 
 
 def _diagnose(args) -> None:
-    from bench.diagnose import bench_diagnose, bench_retrained
+    from bench import diagnose
     from sim.grid import EFFECT_RANGES
 
     causes = args.causes or list(EFFECT_RANGES)
@@ -217,60 +178,20 @@ def _diagnose(args) -> None:
         raise InputError(f"--causes {' '.join(unknown)}: expected some of {', '.join(EFFECT_RANGES)}")
     if args.loops < 1 or args.workers < 1:
         raise InputError("--loops and --workers must be at least 1")
-    quiet = args.json
-
-    def row(c, s):
-        if quiet:
-            return
-        first = ", ".join(f"{k} {v}" for k, v in sorted(s["first_named"].items(), key=lambda kv: -kv[1]))
-        param = "-" if s["param_rel_err_median"] is None else f"{100 * s['param_rel_err_median']:.0f} %"
-        within = s["fs_fd_within_2se_share"]
-        cover = "-" if within is None else f"{100 * within:.0f} %"
-        print(
-            f"{c:22s} {100 * s['named_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
-            f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} "
-            f"{s['fs_fd_read_extended']:3d}/{s['n']:<3d} {cover:>6s} {s['s_per_loop_median']:6.1f}   "
-            f"first named: {first}",
-            flush=True,
-        )
-
-    if not quiet:
-        print(f"diagnose on {args.loops} generated loops per cause (noise 1-4 % of PV RMS, OP/PV only)")
-        print(
-            f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
-            f"{'in 2se':>6s} {'s/loop':>6s}"
-        )
-        print(
-            f"{'':22s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} {'(CPU)':>6s}"
-        )
-    figures = bench_diagnose(args.loops, causes, args.workers, progress=row)
+    text = not args.json
+    if text:
+        diagnose.print_header(args.loops)
+    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=diagnose.print_row if text else None)
     if args.retrain:
-
-        def retrained(c, s):
-            if not quiet:
-                print(
-                    f"  {c:22s} quantify with canonical models {s['quantify_canonical_mae_pp']:6.2f} pp, "
-                    f"retrained on {s['extension']} {s['quantify_retrained_mae_pp']:6.2f} pp (n={s['n']})",
-                    flush=True,
-                )
-
-        if not quiet:
-            print("quantify (learned pipeline, no process declared) on loops with each effect at its middle value:")
-        figures["retrained"] = bench_retrained(args.loops, causes, args.retrain, progress=retrained)
-    figures["host"] = _machine()
-    if args.json:
-        _print_json(figures)
-    else:
-        o = figures["overall"]
-        print(
-            f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} %, canonical loops given a cause "
-            f"{100 * (o['none_given_a_cause'] or 0):.0f} %, fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
-            f"{o['fs_fd_mae_extended_pp']:.2f} pp extended, {o['s_per_loop_median']:.1f} s per loop (median)"
-        )
+        if text:
+            diagnose.print_retrained_header()
+        progress = diagnose.print_retrained if text else None
+        figures["retrained"] = diagnose.bench_retrained(args.loops, causes, args.retrain, progress=progress)
+    _emit(args, _host(figures), diagnose.print_overall)
 
 
 def _accuracy(args) -> None:
-    from bench.accuracy import METHODS, bench_accuracy
+    from bench.accuracy import bench_accuracy, print_table
 
     figures = bench_accuracy(
         args.realisations,
@@ -278,170 +199,46 @@ def _accuracy(args) -> None:
         args.holdout,
         not args.no_hammerstein,
         progress=lambda name: print(f"  done: {name}", file=sys.stderr),
-    ) | {"host": _machine()}
-    if args.json:
-        _print_json(figures)
-        return
-    sets = ["C1-C10", "N1-N10", "holdout"]
-    print(
-        "mean absolute error, percentage points of 500 lbf over fs and fd (thesis Tables 5.1, 5.2); CPU time per loop"
     )
-    print(f"{'method':55s}" + "".join(f"{s:>22s}" for s in sets))
-    for key, label in METHODS.items():
-        row = figures["methods"].get(key)
-        if not row:
-            continue
-        cells = "".join(f"{row[s]['mae_pp']:>9.2f} pp {row[s]['s_per_loop'] * 1e3:>7.1f} ms" for s in sets)
-        print(f"{label:55s}{cells}")
-    n = {s: figures["methods"]["b_pipeline"][s]["n"] for s in sets}
-    print(f"{'loops':55s}" + "".join(f"{n[s]:>22d}" for s in sets))
-    for key in ("b_pipeline", "b_no_flags"):  # every loop is sticky: a withheld number is a miss
-        row = figures["methods"][key]
-        cells = "".join(
-            f"{100 * row[s]['called_sticky']:>6.1f} % {row[s]['mae_misses_counted_pp']:>9.2f} pp" for s in sets
-        )
-        label = {"b_pipeline": "(b)", "b_no_flags": "(b) no flags"}[key] + " called sticky; MAE, misses as zero"
-        print(f"{label:55s}{cells}")
-    print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
-    found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
-    cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)
-    print(f"without flags, identified as the thesis's level loop: {cells}")
-    used = {s: figures["methods"]["b_pipeline"][s]["methods"] for s in sets}
-    print(
-        "(b) used: " + "; ".join(f"{s}: " + ", ".join(f"{k} {v}" for k, v in u.items() if v) for s, u in used.items())
-    )
-    floor = figures["thesis_mlp_chaos_floor"]
-    print(
-        f"thesis MLP on its own 1275 training patterns {floor['training_realisation']:.2f} pp, on fresh "
-        f"realisations of the same grid points {floor['fresh_realisation']:.2f} pp (the chaos floor)"
-    )
+    _emit(args, _host(figures), print_table)
 
 
 def _throughput(args) -> None:
-    from bench.throughput import missed_goals, run_throughput
+    from bench.throughput import run_throughput
+    from bench.throughput_report import find_limit, print_limit, print_step, print_table
 
     def run(loops: int) -> dict:
-        return run_throughput(
-            loops,
-            args.seconds,
-            args.speed,
-            report_every=args.report_every,
-            agents=args.agents,
-            kill_after_s=args.kill_after,
-            mix=args.mix,
-            size_every_min=args.size_every,
-            batch_s=args.batch_s,
-            sharded=not args.unsharded,
-        ) | {"host": _machine()}
-
-    if args.find_limit:
-        return _find_limit(args, run, missed_goals)
-    f = run(args.loops)
-    if args.json:
-        _print_json(f)
-        return
-    lat = (
-        f"p50 {f['latency_p50_s'] * 1e3:.0f} ms, p99 {f['latency_p99_s'] * 1e3:.0f} ms"
-        if f["latency_p50_s"] is not None
-        else "no reports"
-    )
-    print(
-        f"{f['loops']} {f['mix']} loops at {f['speed']:g} Hz, {f['agents']} agent(s), {f['seconds']:g} s, "
-        f"{f['batch_s']:g} s of samples a message on {'shard keys' if f['sharded'] else 'the spec key'}"
-    )
-    print(f"  verdicts reported: {', '.join(f'{k} {v}' for k, v in sorted(f['verdicts'].items()))}")
-    print(
-        f"  samples/s ingested {f['samples_per_s']:.0f}   reports/s {f['reports_per_s']:.1f} "
-        f"({f['reports']} of {f['reports_expected']} expected)"
-    )
-    print(
-        f"  stiction reports with S and J {f['stiction_reports_with_friction']} of {f['verdicts'].get('stiction', 0)} "
-        f"({f['stiction_reports_read_from_own_window']} read from their own window, the others carried a recent "
-        f"reading); readings put off {f['readings_deferred']}"
-    )
-    settled = f["latency_p99_after_first_interval_s"]
-    settled = f"; p99 {settled * 1e3:.0f} ms once every loop has reported" if settled is not None else ""
-    print(f"  latency last sample -> report: {lat}{settled}")
-    by = " ".join("-" if x is None else f"{x:.2f}" for x in f["latency_p99_by_10s"])
-    print(f"  p99 by 10 s of stream (s): {by}")
-    print(f"  samples lost {f['samples_lost']}   rejected {f['rejected'] or 'none'}")
-    shares = ", ".join(f"{x:.0%}" for x in f["messages_received_share"])
-    print(
-        f"  messages received by each agent: {shares} of those published; "
-        f"windows from history {f['windows_from_history']}"
-    )
-    killed = f" (agent 0 SIGKILLed at {f['killed_agent_at_s']:.0f} s)" if f["killed_agent_at_s"] is not None else ""
-    print(
-        f"  exactly once{killed}: {f['reports_duplicated']} reports duplicated, "
-        f"{f['report_intervals_missed']} intervals without a report"
-    )
-    print(
-        f"  agent CPU {', '.join(f'{c:.0%}' for c in f['agent_cpu_share'])} of a core, "
-        f"peak RSS {f['agent_peak_rss_mb']:.0f} MB; sizing worker "
-        f"{', '.join(f'{c:.0%}' for c in f['sizing_worker_cpu_share'])} of a core, {f['loops_sized']} loops sized"
-    )
-    print(f"  host: {f['host']['cpu']}, {f['host']['cpus']} cores")
-    stages = f["agent_cpu_by_stage"]
-    print("  agent CPU by stage (cores): " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
-
-
-def _find_limit(args, run, missed_goals) -> None:
-    """Loop counts up by a quarter from ``--loops`` until a run misses a goal."""
-    held, runs, loops = None, [], args.loops
-    while True:
-        f = run(loops)
-        missed = missed_goals(f)
-        runs.append({"loops": loops, "missed": missed, "figures": f})
-        if not args.json:
-            p99 = f["latency_p99_s"]
-            print(
-                f"{loops} loops: p99 {'-' if p99 is None else f'{p99:.2f}'} s, "
-                f"{max(f['agent_cpu_share']):.2f} of a core, {f['agent_peak_rss_mb']:.0f} MB, "
-                f"{f['samples_lost']} samples lost: " + ("holds" if not missed else "misses " + ", ".join(missed)),
-                flush=True,
+        return _host(
+            run_throughput(
+                loops,
+                args.seconds,
+                args.speed,
+                report_every=args.report_every,
+                agents=args.agents,
+                kill_after_s=args.kill_after,
+                mix=args.mix,
+                size_every_min=args.size_every,
+                batch_s=args.batch_s,
+                sharded=not args.unsharded,
             )
-        if missed:
-            break
-        held, loops = loops, int(round(loops * 1.25 / 500) * 500) or loops + 500
-    if args.json:
-        _print_json({"largest_loops_holding_the_goals": held, "runs": runs, "host": _machine()})
+        )
+
+    if not args.find_limit:
+        _emit(args, run(args.loops), print_table)
         return
-    print(
-        f"largest loop count that holds the goals here: {held if held is not None else f'none from {args.loops}'} "
-        f"({args.agents} agent(s), {args.mix}, {args.batch_s:g} s a message, {args.seconds:g} s live; "
-        f"{_cpu_model()}, {os.cpu_count()} cores)"
-    )
+    held, runs = find_limit(run, args.loops, progress=None if args.json else print_step)
+    if args.json:
+        _print_json(_host({"largest_loops_holding_the_goals": held, "runs": runs}))
+    else:
+        print_limit(held, args.loops, runs[-1]["figures"])
 
 
 def _bridge(args) -> None:
-    from bench.bridge import run_bridge_bench
+    from bench.bridge import print_table, run_bridge_bench
 
     if args.loops < 1 or args.seconds <= 0:
         raise InputError("--loops and --seconds must be positive")
-    f = run_bridge_bench(args.loops, args.seconds, restart=not args.no_restart) | {"host": _machine()}
-    if args.json:
-        _print_json(f)
-        return
-    print(f"{f['loops']} loops at 1 Hz from an OPC UA server through one bridge, {f['seconds']:.0f} s steady")
-    print(
-        f"  samples received {f['samples_received']} ({f['samples_per_s']:.0f}/s), lost {f['samples_lost']}, "
-        f"loops seen {f['loops_seen']}"
-    )
-    print(f"  latency grid time -> subscriber: p50 {f['latency_p50_s']:.2f} s, p99 {f['latency_p99_s']:.2f} s")
-    print(
-        f"  bridge CPU {f['bridge_cores']:.0%} of a core, peak RSS {f['bridge_peak_rss_mb']:.0f} MB "
-        f"(plant server {f['plant_cores']:.0%})"
-    )
-    print(f"  {f['plant_status'] or 'plant: no status line'}")
-    print(
-        f"  bridge reconnects in the steady phase {f.get('bridge_reconnects_steady', '?')}, "
-        f"values dropped {f.get('bridge_dropped') or 'none'}"
-    )
-    if "restart_resume_s" in f:
-        print(
-            f"  server restart: down {f['restart_server_down_s']:.1f} s; every loop's samples back "
-            f"{f['restart_resume_s']:.1f} s after the server was up (median {f['restart_resume_p50_s']:.1f} s)"
-        )
+    _emit(args, _host(run_bridge_bench(args.loops, args.seconds, restart=not args.no_restart)), print_table)
 
 
 BENCHMARKS = {
