@@ -21,11 +21,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ident import checks, fit, lattice
-from ident.fit import Friction, Hypothesis, ValveFit, criterion, effective_samples, fit_valve, friction
+from ident import checks, lattice
+from ident.fit import criterion, fit_valve
+from ident.friction import Friction, effective_samples, friction, load_amplitude_pct, simulated_pv
 from ident.process import Dynamics
 from ident.record import Record, process_sign
 from ident.stem import StemReader
+from ident.valve_model import Hypothesis, ValveFit
 from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
 
 MAX_CAUSES = 4
@@ -69,7 +71,7 @@ class Model:
         plant engineer sees in the plot.  For a record on a lattice, the rounding's own variance
         (q^2/12) is taken out: no model of the loop can remove it.
         """
-        sim = fit.simulated_pv(self.fit, record)
+        sim = simulated_pv(self.fit, record)
         skip = record.skip
         mse = float(np.mean((record.pv_pct[skip:] - sim[skip:]) ** 2))
         if self.quantum_pct:
@@ -296,7 +298,7 @@ def _fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
     fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v), current.fit)) for v in dict.fromkeys(values)]
     value, vf, ic = min(fits, key=lambda f: f[2])
     hyp = APPLY[sc.cause](current.hypothesis, value)
-    amplitude = fit.load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
+    amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
     own = _spread(fitter.record, [(f, c) for _, f, c in fits])
     return Model(
         hyp,
@@ -339,7 +341,7 @@ def _refined(fitter: Fitter, model: Model, cause: str, current: Model) -> Model:
         vf, ic = fitter.full(hyp, current.fit)
         points.append((value, vf, ic))
         if ic < best.criterion:
-            amplitude = fit.load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else best.load_amplitude_pct
+            amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else best.load_amplitude_pct
             best = replace(best, hypothesis=hyp, fit=vf, criterion=ic, load_amplitude_pct=amplitude)
     own = _spread(fitter.record, [(f, c) for _, f, c in points])
     return replace(best, spread=_combined(current.spread, own), profile=tuple(sorted(points, key=lambda p: p[0])))

@@ -23,241 +23,28 @@ segmentation missed: wherever the drive leaves the band around the stem.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import fields, replace
 
 import numpy as np
 
 from ident import kernels
 from ident.objective import nuisance_basis, project_out
-from ident.process import Dynamics, TransferFunction, transfer_function
+from ident.process import TransferFunction, transfer_function
 from ident.record import Record, process_sign
 from ident.stem import StemPath
-from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, band_and_jump_pct, lbf_to_pct, pct_to_lbf, stop_residual_in
-
-SLIP_S = VALVE.viscous_lbf_s_per_in / VALVE.spring_lbf_per_in
-"""Flow-time a slip of 1 % withholds (the stem's two time constants, ``sim.valve``)."""
-PASSES = 3
-
-
-@dataclass(frozen=True)
-class Hypothesis:
-    dynamics: Dynamics = Dynamics()
-    gain_free: bool = False
-    actuator_tau_s: float = 0.0
-    osc_period_s: float | None = None
-    linear_valve: bool = False
-    """No stiction: the stem follows the drive."""
-    snapshot: bool = False
-    """The output samples the stem's position itself (a measured stem), not the flow it passed over an interval."""
-
-
-@dataclass(frozen=True)
-class Drive:
-    """The valve's drive over each sample interval: OP through the actuator's first-order lag."""
-
-    start: np.ndarray
-    end: np.ndarray
-    mean: np.ndarray
-    moves: bool = False
-    """Whether the drive moves within an interval (else it steps at the sample instants)."""
-
-
-def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
-    """Exact for OP held over each interval: ``P(t) = OP + (P0 - OP) e^(-t/tau)``."""
-    if actuator_tau_s <= 0:
-        return Drive(op_pct, op_pct, op_pct)
-    decay = np.exp(-ts_s / actuator_tau_s)
-    end = np.empty_like(op_pct)
-    # the drive when the record starts: a lag follows a ramp tau behind it
-    m = min(5, op_pct.size - 1)
-    d = op_pct[0] - actuator_tau_s * (op_pct[m] - op_pct[0]) / (m * ts_s) if m > 0 else op_pct[0]
-    for k, op in enumerate(op_pct):
-        d = op + (d - op) * decay
-        end[k] = d
-    start = np.concatenate([[op_pct[0]], end[:-1]])
-    mean = op_pct + (start - op_pct) * actuator_tau_s / ts_s * (1 - decay)
-    return Drive(start, end, mean, True)
-
-
-@dataclass(frozen=True)
-class Slips:
-    """Where the stem slipped: interval indices, directions, and how far into the interval it broke away."""
-
-    at: np.ndarray
-    directions: np.ndarray
-    breaks: np.ndarray
-    """Fraction of the interval before the break (0: at the sample instant)."""
-    landing_drive: np.ndarray
-    """The drive when the stem broke away: it lands ``stop`` short of it."""
-    read: np.ndarray
-    """True where the data's segmentation found the slip, False where the valve model added it."""
-
-    @classmethod
-    def from_path(cls, path: StemPath, drive: Drive) -> Slips:
-        at = path.slips
-        return cls(at, path.directions, np.zeros(at.size), drive.mean[at], np.ones(at.size, bool))
-
-
-@dataclass(frozen=True)
-class LinearFit:
-    rss: float
-    n_params: int
-    coef: np.ndarray
-    cov: np.ndarray
-    prediction: np.ndarray
-    """Model of the compared signal."""
-    sigma2: float
-
-
-def solve(y: np.ndarray, x: np.ndarray, q: np.ndarray) -> LinearFit:
-    """Least squares of ``y`` [n] on the rows of ``x`` [p, n] after projecting out the columns of ``q`` [n, k]."""
-    yp = project_out(y[None, :], q)[0]
-    xp = project_out(x, q) if x.shape[0] else x
-    if xp.shape[0]:
-        coef, *_ = np.linalg.lstsq(xp.T, yp, rcond=None)
-        fitted = coef @ xp
-    else:
-        coef, fitted = np.zeros(0), np.zeros_like(yp)
-    resid = yp - fitted
-    rss = float(resid @ resid)
-    n_params = q.shape[1] + xp.shape[0]
-    sigma2 = rss / max(y.size - n_params, 1)
-    cov = sigma2 * np.linalg.pinv(xp @ xp.T) if xp.shape[0] else np.zeros((0, 0))
-    return LinearFit(rss, n_params, coef, cov, y - resid, sigma2)
-
-
-ROWS = ("drive", "stop", "jump", "level0")
-"""The stem's position is ``drive_at_slip + stop * r_stop + jump * r_jump + level0 * r_level0``, per piece."""
-
-
-def path_regressors(slips: Slips, n: int, ts_s: float, snapshot: bool = False) -> np.ndarray:
-    """[4, N] the stem's flow as a linear combination of the valve's parameters (``ROWS``).
-
-    After a slip at a held drive (OP steps at the sample instant) the stem lands ``stop`` short of
-    the drive: ``M = p - d stop``.  When the drive moves within the interval (an actuator lag) it
-    breaks away as the drive crosses ``M_old + d S`` and lands ``stop`` short of that point: it
-    jumps by ``J = S - stop``, ``M = M_old + d J``, a chain back to the last held slip or to the
-    level before the first slip.  Both are linear in (stop, J, level0): the least squares solve
-    for them; the band S itself shows only in when the slips happen (``walk``).
-    """
-    m = slips.at.size
-    d = slips.directions.astype(float)
-    held = slips.breaks <= 0
-    # each slip's piece: from the last slip at a held drive (or the level before the first slip) on,
-    # plus the jumps of the slips at a moving drive since then
-    last_held = np.maximum.accumulate(np.where(held, np.arange(m), -1)) if m else np.zeros(0, int)
-    crossing = np.cumsum(np.where(held, 0.0, d))
-    at_last = np.where(last_held >= 0, crossing[np.maximum(last_held, 0)], 0.0)
-    coef = np.zeros((m + 1, 4))
-    coef[0, 3] = 1.0
-    if m:
-        base = np.where(last_held >= 0, last_held, 0)
-        from_held = last_held >= 0
-        coef[1:, 0] = np.where(from_held, slips.landing_drive[base], 0.0)
-        coef[1:, 1] = np.where(from_held, -d[base], 0.0)
-        coef[1:, 2] = crossing - at_last
-        coef[1:, 3] = np.where(from_held, 0.0, 1.0)
-    piece = np.searchsorted(slips.at, np.arange(n), side="right")
-    r = coef[piece].T.copy()
-    if snapshot:
-        return r
-    # the slip's interval: the old position until the break, then the new one, less the slip's own deficit
-    k = slips.at[slips.at > 0]
-    share = slips.breaks[slips.at > 0] + SLIP_S / ts_s
-    r[:, k] -= share * (r[:, k] - r[:, k - 1])
-    return r
-
-
-@dataclass(frozen=True)
-class ValveFit:
-    """One hypothesis fitted: the linear fit and what it says about the valve (percent of OP)."""
-
-    hypothesis: Hypothesis
-    slips: Slips
-    fit: LinearFit
-    gain_ratio: float
-    gain_se: float
-    stop_pct: float
-    stop_se: float
-    level0_pct: float
-    """The stem's position before the first slip."""
-    tf: TransferFunction
-    band_pct: float = np.nan
-    """S, % of OP."""
-    band_se: float = np.nan
-    jump_pct: float = np.nan
-    """J as the least squares read it from slips at a moving drive (nan: none such)."""
-    jump_se: float = np.nan
-
-    @property
-    def rss(self) -> float:
-        return self.fit.rss
-
-    @property
-    def n_params(self) -> int:
-        """Linear parameters, the hypothesis's own, and one per slip the valve model did not make itself."""
-        return self.fit.n_params + _own_params(self.hypothesis) + int(self.slips.read.sum())
-
-
-def _rows(hyp: Hypothesis) -> list[int]:
-    """Which of ``ROWS`` the least squares solve for: the jump only where the drive moves within intervals."""
-    rows = [0] if hyp.gain_free else []
-    return rows + [1, 2, 3] if hyp.actuator_tau_s > 0 else rows + [1, 3]
-
-
-def _linear_fit(record: Record, hyp: Hypothesis, x: np.ndarray, q: np.ndarray, nominal_gain: float) -> LinearFit:
-    """Least squares on the compared regressors ``x`` [4, n]; a fixed gain moves ``x[0]`` to the target's side.
-
-    The coefficients come back for all four ``ROWS`` (``g`` times each parameter), zero where not solved.
-    """
-    rows = _rows(hyp)
-    y = record.target if hyp.gain_free else record.target - nominal_gain * x[0]
-    fit = solve(y, x[rows], q)
-    coef = np.zeros(4)
-    cov = np.zeros((4, 4))
-    coef[rows] = fit.coef
-    cov[np.ix_(rows, rows)] = fit.cov
-    if not hyp.gain_free:
-        coef[0] = nominal_gain
-    prediction = fit.prediction if hyp.gain_free else fit.prediction + nominal_gain * x[0]
-    return replace(fit, coef=coef, cov=cov, prediction=prediction)
-
-
-@dataclass(frozen=True)
-class Coefficients:
-    gain: float
-    gain_se: float
-    stop: float
-    stop_se: float
-    level0: float
-    jump: float
-    jump_se: float
-
-
-def _valve_from_fit(fit: LinearFit) -> Coefficients:
-    """The valve's parameters from the coefficients of ``g * (drive, stop, jump, level0)``; nan where not solved.
-
-    Only slips at a held drive read ``stop`` (and the gain, through the drive's level), only slips
-    at a moving drive read ``J``.
-    """
-    c, cov = fit.coef, fit.cov
-    g = float(c[0])
-    g_se = float(np.sqrt(max(cov[0, 0], 0.0)))
-    nan = float("nan")
-    if g == 0:
-        return Coefficients(0.0, g_se, nan, nan, nan, nan, nan)
-
-    def ratio(i):
-        if cov[i, i] <= 0 and c[i] == 0:
-            return nan, nan
-        jac = np.zeros(4)
-        jac[0], jac[i] = -c[i] / g**2, 1.0 / g  # d (c_i / g)
-        return float(c[i] / g), float(np.sqrt(max(jac @ cov @ jac, 0.0)))
-
-    stop, stop_se = ratio(1)
-    jump, jump_se = ratio(2)
-    level0, _ = ratio(3)
-    return Coefficients(g, g_se, stop, stop_se, level0, jump, jump_se)
+from ident.valve_model import (
+    Drive,
+    Hypothesis,
+    Slips,
+    ValveFit,
+    drive_of,
+    linear_fit,
+    own_params,
+    path_regressors,
+    solve,
+    solved_rows,
+    valve_from_fit,
+)
 
 
 def walk(
@@ -319,7 +106,7 @@ def _batch_fit(
     """Least squares of every candidate's regressors [C, 4, N] at once: (rss [C], coef [C, 4]) of ``ROWS``."""
     x = project_out(record.compared(tf.response(regs)).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 4, -1)
     y = project_out(record.target[None, :], q)[0]
-    rows = _rows(hyp)
+    rows = solved_rows(hyp)
     cols = x[:, rows]
     target = np.broadcast_to(y, (regs.shape[0], y.size)) if hyp.gain_free else y[None, :] - nominal_gain * x[:, 0]
     gram = np.einsum("cin,cjn->cij", cols, cols)
@@ -356,17 +143,6 @@ SEARCH_GRIDS = {
 def criterion(rss: np.ndarray | float, n_params: np.ndarray | int, n: int) -> np.ndarray | float:
     """Schwarz's criterion (BIC) of Gaussian residuals: every parameter must buy log(n) of n log(RSS)."""
     return n * np.log(np.maximum(rss, 1e-300) / n) + n_params * np.log(n)
-
-
-def _own_params(hyp: Hypothesis) -> int:
-    d = hyp.dynamics
-    return (
-        int(d.time_constant_s is not None)
-        + int(d.dead_time_s > 0)
-        + int(d.sensor_tau_s > 0)
-        + int(hyp.actuator_tau_s > 0)
-        + int(hyp.osc_period_s is not None)
-    )
 
 
 def fit_valve(
@@ -410,7 +186,7 @@ def fit_valve(
         # an external load the segmentation cut into steps leaves slips where the stem never moved:
         # anchored there, the valve model would land far from the stem
         pruned = _prune_forced(
-            record, hyp, read, tf, q, nominal_gain, best.fit.n_params + _own_params(hyp), harmful_only=True
+            record, hyp, read, tf, q, nominal_gain, best.fit.n_params + own_params(hyp), harmful_only=True
         )
         if pruned.at.size < read.at.size:
             read = pruned
@@ -431,7 +207,7 @@ def fit_valve(
     # carries into all the next, and only the data can stop it, as an observer would.  At a held
     # drive a landing is the drive less stop, which re-synchronises by itself.
     read_levels = _read_levels(path, best) if drive.moves else None
-    n, fixed = record.n_fit, best.fit.n_params + _own_params(hyp)
+    n, fixed = record.n_fit, best.fit.n_params + own_params(hyp)
     tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
     winner = (np.inf, read, best.stop_pct, best.level0_pct)
     centres = [(band0, best.stop_pct, best.level0_pct)]
@@ -544,19 +320,19 @@ def _finish(
     held at the nearest possible value and the rest refitted: no valve lands beyond its drive.
     """
     x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s, hyp.snapshot)))
-    fit = _linear_fit(record, hyp, x, q, nominal_gain)
-    c = _valve_from_fit(fit)
+    fit = linear_fit(record, hyp, x, q, nominal_gain)
+    c = valve_from_fit(fit)
     if band is not None and np.isfinite(band) and not (0.0 <= c.stop <= band):
         stop = float(np.clip(c.stop, 0.0, band)) if np.isfinite(c.stop) else 0.5 * band
         held = np.stack([x[0] + stop * x[1], np.zeros_like(x[1]), x[2], x[3]])
-        fit = _linear_fit(record, hyp, held, q, nominal_gain)
+        fit = linear_fit(record, hyp, held, q, nominal_gain)
         coef = fit.coef.copy()
         coef[1] = coef[0] * stop
         cov = fit.cov.copy()
         cov[1, :], cov[:, 1] = stop * cov[0, :], stop * cov[:, 0]
         cov[1, 1] = stop * stop * fit.cov[0, 0]
         fit = replace(fit, coef=coef, cov=cov)
-        c = replace(_valve_from_fit(fit), stop=stop)
+        c = replace(valve_from_fit(fit), stop=stop)
     lo, hi = float(record.op_pct.min()), float(record.op_pct.max())
     if not lo - (hi - lo) - 1.0 <= c.level0 <= hi + (hi - lo) + 1.0:
         # the stem before the first slip, read from a piece too short to tell: where OP started
@@ -596,173 +372,3 @@ def _band(vf: ValveFit, drive: Drive, stop: float | None = None) -> tuple[float,
         band = float(np.median(mid))
         return band, float(np.max(after - before) / 2 + 0.25 * band), int(mid.size)
     return float(np.median(mid)), _robust_se(mid), int(mid.size)
-
-
-@dataclass(frozen=True)
-class Friction:
-    """The valve read from a fit: band and jump in % of span, and the thesis's fs/fd, with standard errors."""
-
-    s_pct: float
-    j_pct: float
-    s_se_pct: float
-    j_se_pct: float
-    fs_pct: float
-    fd_pct: float
-    fs_se_pct: float
-    fd_se_pct: float
-    slips_read: int
-
-
-def effective_samples(resid: np.ndarray) -> float:
-    """Independent samples in an autocorrelated residual: n over its integrated autocorrelation time."""
-    r = resid - resid.mean()
-    c0 = float(r @ r)
-    if c0 <= 0:
-        return float(r.size)
-    tau = 1.0
-    for lag in range(1, min(200, r.size // 4)):
-        rho = float(r[lag:] @ r[:-lag]) / c0
-        if rho <= 0:
-            break
-        tau += 2 * rho
-    return r.size / tau
-
-
-PROFILE_POINTS = 41
-
-
-def jump_profile_se(vf: ValveFit, record: Record, band: float) -> float:
-    """J's uncertainty along the ridge a free process gain opens: the profile of the criterion over stop.
-
-    With the gain free, a larger gain and a smaller jump explain the same PV (one slip per half
-    cycle moves PV by K J): the least squares' covariance, conditional on the slips, misses how
-    flat the criterion is along that ridge.  Here stop (so J = S - stop) is fixed on a grid from
-    0 to S, the gain refitted, and J's interval read where the criterion (over the residual's
-    effective samples) stays within 1 of its least.
-    """
-    hyp = vf.hypothesis
-    if not hyp.gain_free or not np.isfinite(band) or band <= 0 or vf.slips.at.size == 0:
-        return 0.0
-    tf = vf.tf
-    q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
-    x = project_out(record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot))), q)
-    y = project_out(record.target[None, :], q)[0]
-    stops = np.linspace(0.0, band, PROFILE_POINTS)
-    rss = np.empty(stops.size)
-    for i, stop in enumerate(stops):
-        cols = np.stack([x[0] + stop * x[1], x[3]] + ([x[2]] if hyp.actuator_tau_s > 0 else []))
-        coef, *_ = np.linalg.lstsq(cols.T, y, rcond=None)
-        resid = y - coef @ cols
-        rss[i] = resid @ resid
-    best = int(np.argmin(rss))
-    n_eff = effective_samples(
-        y
-        - (
-            np.linalg.lstsq(np.stack([x[0] + stops[best] * x[1], x[3]]).T, y, rcond=None)[0]
-            @ np.stack([x[0] + stops[best] * x[1], x[3]])
-        )
-    )
-    inside = stops[n_eff * np.log(rss / rss[best]) <= 1.0]
-    return float(np.ptp(inside) / 2) if inside.size > 1 else 0.0
-
-
-def friction(vf: ValveFit, record: Record) -> Friction:
-    """The valve a fit read, in both conventions (``sim.valve.band_and_jump_pct``).
-
-    The fit reads the static band ``b = fs / 12`` (searched, or from the brackets: how far the drive
-    gets from the stem before it breaks away) and either the jump or the stop ``fd / 12`` (one from
-    the least squares, the other the difference).  Choudhury's S, the OP travel after a reversal
-    before the stem moves, is ``b + stop``; J is ``b - stop``.  Standard errors follow the fit's own
-    parameters: where J is read, ``S = 2 b - J``; where stop is read, S and J share its error and b's.
-    """
-    b, b_se = vf.band_pct, vf.band_se
-    # slips at a moving drive read J, the band comes from when they happen: stop is the difference;
-    # slips at a held drive read stop, and J is the difference
-    if np.isfinite(vf.jump_pct):
-        j, j_se = vf.jump_pct, vf.jump_se
-        stop, stop_se = b - j, float(np.hypot(b_se, j_se))
-        s_se = float(np.hypot(2 * b_se, j_se))
-    else:
-        stop = vf.stop_pct
-        # a free gain trades off against the jump: the profile's width, where wider than the covariance's
-        stop_se = max(vf.stop_se, jump_profile_se(vf, record, b)) if np.isfinite(stop) else vf.stop_se
-        j, j_se = b - stop, float(np.hypot(b_se, stop_se))
-        s_se = j_se
-    if not (np.isfinite(b) and np.isfinite(stop)):
-        nan = float("nan")
-        return Friction(nan, nan, nan, nan, nan, nan, nan, nan, int(vf.slips.read.sum()))
-    fs, stop_pct_of_500lbf = b * PCT_OF_500LBF_PER_PCT_OF_SPAN, stop * PCT_OF_500LBF_PER_PCT_OF_SPAN
-    s, j = band_and_jump_pct(fs, stop_pct_of_500lbf)
-    stop_lbf = pct_to_lbf(stop_pct_of_500lbf)
-    fd_lbf = stop_lbf - VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs) - stop_lbf)
-    return Friction(
-        float(s),
-        float(j),
-        s_se,
-        j_se,
-        float(fs),
-        float(lbf_to_pct(fd_lbf)),
-        b_se * PCT_OF_500LBF_PER_PCT_OF_SPAN,
-        stop_se * PCT_OF_500LBF_PER_PCT_OF_SPAN,
-        int(vf.slips.read.sum()),
-    )
-
-
-def load_amplitude_pct(record: Record, vf: ValveFit) -> float:
-    """Amplitude of the external sine load at the process input, % of span, from an explicit fit.
-
-    The sine and cosine are fitted beside the valve's regressors and the nuisances; their amplitude
-    at PV is carried back through the process's gain at that frequency.
-    """
-    hyp = vf.hypothesis
-    if not hyp.osc_period_s:
-        return float("nan")
-    tf = vf.tf
-    omega = 2 * np.pi / hyp.osc_period_s
-    t = record.t_s
-    sines = record.compared(np.stack([np.sin(omega * t), np.cos(omega * t)]))
-    nuisance = np.concatenate([record.compared(tf.free_responses(record.n)), np.ones((1, record.n_fit))])
-    if hyp.linear_valve or vf.slips.at.size == 0:
-        drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-        model = record.compared(tf.response(drive.mean[None, :]))
-    else:
-        model = record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot)))
-    y = record.target
-    if not hyp.gain_free:
-        y = y - vf.gain_ratio * model[0]
-        model = model[1:]
-    x = np.concatenate([sines, model, nuisance]).T
-    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
-    at_pv = float(np.hypot(coef[0], coef[1]))
-    z = np.exp(-1j * omega * record.ts_s)
-    response = abs(np.polyval(tf.b[::-1], z) / np.polyval(tf.a[::-1], z)) * abs(vf.gain_ratio)
-    return at_pv / response if response > 0 else float("nan")
-
-
-def stem_path(vf: ValveFit, record: Record) -> np.ndarray:
-    """[N] the model's stem position (% of OP) at every interval: landings held between slips."""
-    drive = drive_of(record.op_pct, vf.hypothesis.actuator_tau_s, record.ts_s)
-    if vf.hypothesis.linear_valve:
-        return drive.mean.copy()
-    regs = path_regressors(vf.slips, record.n, record.ts_s, vf.hypothesis.snapshot)
-    level0 = vf.level0_pct if np.isfinite(vf.level0_pct) else float(np.mean(record.op_pct))
-    stop = vf.stop_pct if np.isfinite(vf.stop_pct) else 0.0
-    jump = vf.jump_pct if np.isfinite(vf.jump_pct) else 0.0
-    return regs[0] + stop * regs[1] + jump * regs[2] + level0 * regs[3]
-
-
-def simulated_pv(vf: ValveFit, record: Record) -> np.ndarray:
-    """[N] PV as the model simulates it from its stem path, with offset and drift fitted to the record's levels.
-
-    Open loop in the process: what the model says PV did, not a one-sample prediction from the data.
-    """
-    u = stem_path(vf, record)
-    # deviations from the first position: the process starts at rest with the stem where it is
-    y = vf.gain_ratio * vf.tf.response(u[None, :] - u[0])[0]
-    t = record.t_s / max(record.t_s[-1], 1e-9)
-    x = np.stack([np.ones(record.n), t, *vf.tf.free_responses(record.n)], axis=1)
-    if vf.hypothesis.osc_period_s:
-        w = 2 * np.pi / vf.hypothesis.osc_period_s * record.t_s
-        x = np.concatenate([x, np.sin(w)[:, None], np.cos(w)[:, None]], axis=1)
-    coef, *_ = np.linalg.lstsq(x, record.pv_pct - y, rcond=None)
-    return y + x @ coef

@@ -9,10 +9,11 @@ import numpy as np
 from detect.features import stuck_travel
 from ident.checks import blocking, data_checks, impossible_friction
 from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
-from ident.fit import Friction, ValveFit
+from ident.friction import Friction
 from ident.process import NOMINAL
 from ident.record import Record
 from ident.trust import stuck_travel_contradicts, with_model_error
+from ident.valve_model import ValveFit
 from schemas import diagnosis as schema
 
 

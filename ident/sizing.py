@@ -61,7 +61,7 @@ class Sizing:
 def size(op_pct: np.ndarray, pv_pct: np.ndarray, ts_s: float, name: str = "loop", sp_pct=None) -> Sizing:
     """Diagnose the record and read S and J with the model error added (seconds of CPU a loop);
     ``sp_pct``, the setpoint where recorded, lets a stuck setpoint step bound the band too."""
-    from ident.fit import simulated_pv
+    from ident.friction import simulated_pv
     from ident.report import diagnose_loop
 
     report, record, d = diagnose_loop(name, np.asarray(op_pct, float), np.asarray(pv_pct, float), ts_s, sp=sp_pct)

@@ -42,7 +42,7 @@ def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -
 
 
 def with_model_error(f):
-    """``ident.fit.Friction`` with the model error added to its standard errors (in quadrature):
+    """``ident.friction.Friction`` with the model error added to its standard errors (in quadrature):
     S's by ``MODEL_ERROR_S`` S, J's by ``MODEL_ERROR_J`` S, and fs's and fd's by what those two
     make of them (``sim.valve.friction_se_pct``)."""
     if not math.isfinite(f.s_pct):

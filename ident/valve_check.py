@@ -12,10 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ident.fit import Hypothesis, ValveFit, criterion, fit_valve, friction, stem_path
+from ident.fit import criterion, fit_valve
+from ident.friction import friction, stem_path
 from ident.process import NOMINAL, Dynamics
 from ident.record import Record
 from ident.stem import StemReader
+from ident.valve_model import Hypothesis, ValveFit
 
 LAG_GRID_TS = (0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 3.0, 5.0)
 

@@ -99,7 +99,7 @@ def _diagnosis_title(report) -> str:
 def plot_diagnosis(out: Path, record, d, report) -> Path:
     """Measured PV against the canonical and the extended model; OP and the model's stem; the OP-PV
     overlay; the residuals' spectra.  The causes and the gain in the title."""
-    from ident.fit import simulated_pv, stem_path
+    from ident.friction import simulated_pv, stem_path
 
     t = record.t_s
     fig, axes = plt.subplots(2, 2, figsize=(14, 8), gridspec_kw={"width_ratios": [1.7, 1]})

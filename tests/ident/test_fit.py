@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from ident import fit as F  # noqa: N812
+from ident import valve_model as M  # noqa: N812
+from ident.friction import friction
 from ident.process import Dynamics, transfer_function
 from ident.record import Record
 from ident.stem import read_paths
@@ -19,9 +21,9 @@ from tests.ident.walk_reference import walk_by_sample
 )
 def test_compiled_walk_equals_the_sample_by_sample_transcription(ext):
     r = simulate([LoopSpec(33.2, 19.4, disturbance=Disturbance("gaussian", "output", 0.03), extensions=ext)]).kept()
-    drive = F.drive_of(r.op[0], ext.actuator_tau_s, 1.0)
+    drive = M.drive_of(r.op[0], ext.actuator_tau_s, 1.0)
     path = read_paths(r.pv[0], [Dynamics(None, 0.0, ext.sensor_tau_s)], 1.0)[0]
-    read = F.Slips.from_path(path, drive)
+    read = M.Slips.from_path(path, drive)
     bands, stops = np.linspace(8, 17, 12), np.linspace(6, 9, 12)
     levels = np.full(12, r.mv[0, 0])
     fast = F.walk(read, drive, bands, stops, levels, 3)
@@ -62,15 +64,15 @@ def test_exact_parameters_reproduce_a_noise_free_loop():
     spec = LoopSpec(33.2, 19.4, extensions=Extensions(dead_time_s=2.6))
     r = simulate([spec]).kept()
     rec = Record(r.op[0], r.pv[0], 1.0)
-    hyp = F.Hypothesis(Dynamics(None, 2.6))
+    hyp = M.Hypothesis(Dynamics(None, 2.6))
     vf = F.fit_valve(rec, hyp, read_paths(r.pv[0], [hyp.dynamics], 1.0)[0])
     assert vf.rss < 1e-12
-    fr = F.friction(vf, rec)
+    fr = friction(vf, rec)
     assert fr.fs_pct == pytest.approx(33.2, abs=0.3)
     assert fr.fd_pct == pytest.approx(19.4, abs=0.05)
 
 
-def _regressors_by_slip(slips: F.Slips, n: int, ts_s: float) -> np.ndarray:
+def _regressors_by_slip(slips: M.Slips, n: int, ts_s: float) -> np.ndarray:
     """The stem's regressors slip by slip: a held slip lands ``stop`` short of the drive, a slip at a
     moving drive jumps by J from the last landing."""
     coef = np.zeros((slips.at.size + 1, 4))
@@ -80,7 +82,7 @@ def _regressors_by_slip(slips: F.Slips, n: int, ts_s: float) -> np.ndarray:
         coef[j + 1] = (slips.landing_drive[j], -d, 0.0, 0.0) if held else coef[j] + (0.0, 0.0, d, 0.0)
     r = coef[np.searchsorted(slips.at, np.arange(n), side="right")].T.copy()
     k = slips.at[slips.at > 0]
-    share = slips.breaks[slips.at > 0] + F.SLIP_S / ts_s
+    share = slips.breaks[slips.at > 0] + M.SLIP_S / ts_s
     r[:, k] -= share * (r[:, k] - r[:, k - 1])
     return r
 
@@ -91,5 +93,5 @@ def test_vectorised_regressors_equal_the_slip_by_slip_recursion(seed):
     m = int(rng.integers(1, 40))
     at = np.sort(rng.choice(np.arange(1, 600), m, replace=False))
     breaks = np.where(rng.random(m) < 0.5, 0.0, rng.random(m))
-    slips = F.Slips(at, rng.choice([-1, 1], m), breaks, rng.normal(0, 5, m), np.ones(m, bool))
-    np.testing.assert_allclose(F.path_regressors(slips, 600, 1.0), _regressors_by_slip(slips, 600, 1.0))
+    slips = M.Slips(at, rng.choice([-1, 1], m), breaks, rng.normal(0, 5, m), np.ones(m, bool))
+    np.testing.assert_allclose(M.path_regressors(slips, 600, 1.0), _regressors_by_slip(slips, 600, 1.0))

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from ident.fit import Friction
+from ident.friction import Friction
 from ident.sizing import from_report, size
 from ident.trust import MODEL_ERROR_J, MODEL_ERROR_S, with_model_error
 from sim.plant_loops import plant_loops, simulate_plant, stable

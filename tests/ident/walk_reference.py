@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ident.fit import Drive, Slips, _as_slips, _breaks
+from ident.fit import _as_slips, _breaks
+from ident.valve_model import Drive, Slips
 
 
 def walk_by_sample(
