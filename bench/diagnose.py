@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ident.diagnose import cause_parameters, diagnose
+from ident.diagnose import diagnose
+from ident.models import cause_parameters
 from ident.record import Record
 from ident.report import diagnosis_report
 from sim.extensions import CATALOGUE

@@ -7,9 +7,10 @@ import math
 import numpy as np
 
 from detect.features import stuck_travel
+from ident.cause_fit import residual_periods
 from ident.checks import blocking, data_checks, impossible_friction
-from ident.diagnose import Diagnosis, Model, cause_parameters, residual_periods
 from ident.friction import Friction
+from ident.models import Diagnosis, Model, cause_parameters
 from ident.process import NOMINAL
 from ident.record import Record
 from ident.trust import stuck_travel_contradicts, with_model_error

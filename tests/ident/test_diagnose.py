@@ -7,7 +7,8 @@ code under test is not given; diagnose sees OP and PV only.  Seeds are fixed.
 import numpy as np
 import pytest
 
-from ident.diagnose import cause_parameters, diagnose
+from ident.diagnose import diagnose
+from ident.models import cause_parameters
 from ident.record import Record
 from sim.actuator import actuate
 from sim.disturbance import Disturbance

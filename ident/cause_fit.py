@@ -1,0 +1,319 @@
+"""One cause of the catalogue fitted on top of the current model, its parameter searched
+(``ident.diagnose`` adds causes greedily with these): the grid, the fitter that shares a
+record's work, a cheap screen then full fits of the best grid points, a refinement between
+them, and the spread of the valve's numbers over the fits the criterion cannot tell apart."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ident.fit import criterion, fit_valve
+from ident.friction import Friction, effective_samples, load_amplitude_pct
+from ident.models import APPLY, NO_SPREAD, Model
+from ident.process import Dynamics
+from ident.record import Record, process_sign
+from ident.stem import StemReader
+from ident.valve_model import Hypothesis, ValveFit
+from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
+
+
+def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
+    ts, span = record.ts_s, record.n * record.ts_s
+    if cause == "dead_time":  # fine: a fractional delay splits every slip's flow between two samples
+        return ts * np.arange(0.1, 12.01, 0.1)
+    if cause in ("sensor_lag", "actuator_lag"):
+        return ts * np.geomspace(0.3, 20, 18)
+    if cause in ("process_type", "process_gain+process_type"):
+        return np.geomspace(0.05 * ts, span / 3, 18)  # longer lags than a third of the record read as integrating
+    if cause == "process_gain":
+        return np.array([1.0])
+    if cause == "external_oscillation":
+        scan = np.geomspace(10 * ts, span / 2.5, 40)
+        peaks = residual_periods(record, current.fit)
+        return np.unique(np.concatenate([scan, peaks[peaks >= 10 * ts]]))
+    raise ValueError(cause)
+
+
+def residual_periods(record: Record, vf: ValveFit, count: int = 4) -> np.ndarray:
+    """Periods [s] of the strongest peaks of the residual's spectrum (as PV levels), longest first."""
+    resid = record.target - vf.fit.prediction
+    n = resid.size
+    spec = np.abs(np.fft.rfft(resid * np.hanning(n))) ** 2
+    freq = np.fft.rfftfreq(n, record.ts_s)
+    lo = np.searchsorted(freq, 3.0 / (n * record.ts_s))  # at least three cycles in the record
+    level = spec[1:] / np.maximum(np.abs(1 - np.exp(-2j * np.pi * freq[1:] * record.ts_s)) ** 2, 1e-12)
+    level = np.concatenate([[0.0], level])
+    level[:lo] = 0
+    peaks = np.flatnonzero((level[1:-1] > level[:-2]) & (level[1:-1] >= level[2:])) + 1
+    peaks = peaks[np.argsort(level[peaks])[::-1][:count]]
+    return np.sort(1.0 / freq[peaks])[::-1] if peaks.size else np.zeros(0)
+
+
+def _between(grid: np.ndarray, best: int) -> np.ndarray:
+    """Two points either side of ``grid[best]``, a third of the way to its neighbours."""
+    lo = grid[best - 1] if best > 0 else grid[best] * 0.6
+    hi = grid[best + 1] if best + 1 < grid.size else grid[best] * 1.5
+    v = grid[best]
+    return np.array([v - (v - lo) / 3, v + (hi - v) / 3])
+
+
+class Fitter:
+    """Fits of one record, with the stem paths read under each process hypothesis kept for reuse."""
+
+    def __init__(self, record: Record):
+        self.record = record
+        self.reader = StemReader(record.pv_pct, record.ts_s)
+        self.sign = process_sign(record.op_pct, record.pv_pct)
+
+    def _criterion(self, vf: ValveFit) -> float:
+        """Schwarz's criterion; a process gain of the sign the controller rules out fits the controller
+        backwards (PV read from OP through the PI law), not the plant: no such model."""
+        if vf.hypothesis.gain_free and not vf.gain_ratio * self.sign > 0:
+            return float("inf")
+        return float(criterion(vf.rss, vf.n_params, self.record.n_fit))
+
+    def paths(self, keys: list[tuple[Dynamics, float | None]]):
+        """Stem paths under (dynamics, external oscillation period) hypotheses."""
+        return self.reader.paths(keys)
+
+    def fast(self, hyps: list[Hypothesis], own_paths: bool = True) -> list[tuple[ValveFit, float]]:
+        """First-pass fits (every slip as read): (fit, criterion) each.
+
+        ``own_paths=False`` reads the slips without the external oscillation (a quick scan of periods).
+        """
+        out = []
+        keys = [(h.dynamics, h.osc_period_s if own_paths else None) for h in hyps]
+        for h, p in zip(hyps, self.paths(keys), strict=True):
+            vf = fit_valve(self.record, h, p, search="quick")
+            out.append((vf, self._criterion(vf)))
+        return out
+
+    def with_slips(self, hyp: Hypothesis, slips) -> ValveFit | None:
+        """``hyp`` fitted with given slips (no search)."""
+        from ident.fit import refit
+
+        return refit(self.record, hyp, slips)
+
+    def full(self, hyp: Hypothesis, start: ValveFit | None = None) -> tuple[ValveFit, float]:
+        """The full fit; ``start``, a fitted valve (the current model's), is searched from as well."""
+        valve = None if start is None else (start.band_pct, start.stop_pct, start.level0_pct)
+        path = self.paths([(hyp.dynamics, hyp.osc_period_s)])[0]
+        vf = fit_valve(self.record, hyp, path, search="full", start=valve)
+        return vf, self._criterion(vf)
+
+
+FULL_FITS_PER_CAUSE = 3
+CAUSES_FITTED_IN_FULL = 2
+MAX_FULL_CAUSES = 4
+
+
+@dataclass(frozen=True)
+class Screened:
+    cause: str
+    grid: np.ndarray
+    criteria: np.ndarray
+    fits: list[ValveFit]
+
+
+OSC_RESCREENED = 3
+
+
+def screen(fitter: Fitter, cause: str, current: Model) -> Screened | None:
+    """The cause's parameter on its grid, with first-pass fits (every slip as read).
+
+    Periods of an external oscillation are scanned with the slips read as if there were none
+    (cheap: one segmentation), and the best few again with the load taken out before the slips
+    are read: the sine otherwise reads as extra slips and spoils every first-pass fit.
+    """
+    grid = _grid(cause, fitter.record, current)
+    if grid.size == 0:
+        return None
+    hyps = [APPLY[cause](current.hypothesis, v) for v in grid]
+    scored = fitter.fast(hyps, own_paths=cause != "external_oscillation")
+    crit = np.array([ic for _, ic in scored])
+    fits = [vf for vf, _ in scored]
+    if cause == "external_oscillation":
+        for i in np.argsort(crit)[:OSC_RESCREENED]:
+            ((fits[i], crit[i]),) = fitter.fast([hyps[i]], own_paths=True)
+    return Screened(cause, grid, crit, fits)
+
+
+def _local_minima(c: np.ndarray, count: int) -> list[int]:
+    """Indices of the ``count`` lowest local minima of ``c``."""
+    if c.size == 1:
+        return [0]
+    left = np.concatenate([[np.inf], c[:-1]])
+    right = np.concatenate([c[1:], [np.inf]])
+    idx = np.flatnonzero((c <= left) & (c <= right))
+    return [int(i) for i in idx[np.argsort(c[idx])][:count]]
+
+
+def fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
+    """The screening curve's best local minima, and points beside the best, fitted in full."""
+    minima = _local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
+    values = [float(sc.grid[i]) for i in minima]
+    if sc.cause != "process_gain" and sc.grid.size > 1:
+        values += [float(v) for v in _between(sc.grid, minima[0])]
+    if "process_type" in sc.cause:  # a lag as long as the grid's longest is no lag the record can tell
+        values = [v for v in values if v < 0.999 * sc.grid.max()] or [float(sc.grid[-2])]
+    fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v), current.fit)) for v in dict.fromkeys(values)]
+    value, vf, ic = min(fits, key=lambda f: f[2])
+    hyp = APPLY[sc.cause](current.hypothesis, value)
+    amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
+    own = spread(fitter.record, [(f, c) for _, f, c in fits])
+    return Model(
+        hyp,
+        vf,
+        ic,
+        (*current.causes, *names(sc.cause)),
+        current.quantum_pct,
+        None,
+        amplitude,
+        combined(current.spread, own),
+        tuple(sorted(fits, key=lambda f: f[0])),
+    )
+
+
+REFINE_STEPS = 2
+
+
+def refined(fitter: Fitter, model: Model, cause: str, current: Model) -> Model:
+    """The winning cause's parameter between the grid's points: the vertex of a parabola through
+    the best fit and its neighbours (in log of the parameter), fitted in full while it improves.
+    A grid a third of a step apart still misreads a lag by 10-15 %, and the band with it."""
+    if cause == "process_gain" or len(model.profile) < 3:
+        return model
+    points = list(model.profile)
+    best = model
+    for _ in range(REFINE_STEPS):
+        points.sort(key=lambda p: p[0])
+        k = int(np.argmin([c for _, _, c in points]))
+        if k == 0 or k == len(points) - 1:
+            break
+        (x0, c0), (x1, c1), (x2, c2) = ((np.log(v), c) for v, _, c in points[k - 1 : k + 2])
+        denom = (x1 - x0) * (c1 - c2) - (x1 - x2) * (c1 - c0)
+        if not (np.isfinite(denom) and denom != 0):  # a neighbour with no model (inf) bounds the search
+            break
+        x = x1 - 0.5 * ((x1 - x0) ** 2 * (c1 - c2) - (x1 - x2) ** 2 * (c1 - c0)) / denom
+        if not (x0 < x < x2) or min(abs(x - x0), abs(x - x1), abs(x - x2)) < 0.01:
+            break
+        value = float(np.exp(x))
+        hyp = APPLY[cause](current.hypothesis, value)
+        vf, ic = fitter.full(hyp, current.fit)
+        points.append((value, vf, ic))
+        if ic < best.criterion:
+            amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else best.load_amplitude_pct
+            best = replace(best, hypothesis=hyp, fit=vf, criterion=ic, load_amplitude_pct=amplitude)
+    own = spread(fitter.record, [(f, c) for _, f, c in points])
+    return replace(best, spread=combined(current.spread, own), profile=tuple(sorted(points, key=lambda p: p[0])))
+
+
+def _valve_of(vf: ValveFit) -> tuple[float, float, float, float]:
+    """(static band, stop, S, J) of a fit, % of span (nan where not read)."""
+    band = vf.band_pct
+    stop = band - vf.jump_pct if np.isfinite(vf.jump_pct) else vf.stop_pct
+    s, j = band_and_jump_pct(band * PCT_OF_500LBF_PER_PCT_OF_SPAN, stop * PCT_OF_500LBF_PER_PCT_OF_SPAN)
+    return band, stop, float(s), float(j)
+
+
+def spread(record: Record, fits: list[tuple[ValveFit, float]]) -> tuple[float, ...]:
+    """Weighted spread of ``SPREAD_FIELDS`` over rival fits of one record.
+
+    Each fit weighs exp(-delta/2), delta its criterion above the best counted over the residual's
+    effective samples (neighbouring residuals are not independent evidence): fits the data cannot
+    tell from the best count fully, fits far behind not at all.  This is the friction's uncertainty
+    from what the selection could not pin down (a dead time against an actuator lag, a lag of 3 s
+    against one of 5 s), which the chosen fit's covariance does not see.
+    """
+    values = np.array([_valve_of(vf) for vf, _ in fits], dtype=float)
+    crit = np.array([c for _, c in fits], dtype=float)
+    ok = np.all(np.isfinite(values), axis=1) & np.isfinite(crit)
+    if ok.sum() < 2:
+        return NO_SPREAD
+    values, crit = values[ok], crit[ok]
+    best = int(np.argmin(crit))
+    best_fit = [vf for (vf, _), k in zip(fits, ok, strict=True) if k][best]
+    n_eff = effective_samples(record.target - best_fit.fit.prediction)
+    w = np.exp(-0.5 * (crit - crit[best]) * n_eff / record.n_fit)
+    mean = w @ values / w.sum()
+    sd = np.sqrt(w @ (values - mean) ** 2 / w.sum())
+    return tuple(float(v) for v in sd)
+
+
+def combined(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(float(np.hypot(x, y)) for x, y in zip(a, b, strict=True))
+
+
+def widened(f: Friction, spread: tuple[float, ...]) -> Friction:
+    """``f`` with the model uncertainty added to its standard errors (in quadrature)."""
+    if not any(spread):
+        return f
+    band, stop, s, j = spread
+    k = PCT_OF_500LBF_PER_PCT_OF_SPAN
+    return replace(
+        f,
+        s_se_pct=float(np.hypot(f.s_se_pct, s)),
+        j_se_pct=float(np.hypot(f.j_se_pct, j)),
+        fs_se_pct=float(np.hypot(f.fs_se_pct, band * k)),
+        fd_se_pct=float(np.hypot(f.fd_se_pct, stop * k)),
+    )
+
+
+def names(move: str) -> tuple[str, ...]:
+    """The catalogue causes a move of the search names (one, or two searched together)."""
+    return tuple(move.split("+"))
+
+
+def baseline(fitter: Fitter, current: Model, tried: Model) -> Model:
+    """The current model at its best: refitted with the slips the tried model found, where that is better.
+
+    A cause must not get the credit for a better valve fit that its search happened upon.
+    """
+    vf = fitter.with_slips(current.hypothesis, tried.fit.slips)
+    if vf is None:
+        return current
+    ic = criterion(vf.rss, vf.n_params, fitter.record.n_fit)
+    return replace(current, fit=vf, criterion=ic) if ic < current.criterion else current
+
+
+SEARCHED = (
+    "process_gain",
+    "process_type",
+    "process_gain+process_type",
+    "dead_time",
+    "sensor_lag",
+    "actuator_lag",
+    "external_oscillation",
+)
+
+
+ROUNDING_SHARE = 0.1
+"""Share of the remaining error the rounding must account for to be named."""
+
+
+def quantised(record: Record, current: Model, q: float) -> Model | None:
+    """The record's lattice as a cause: the part of the model's error that the rounding itself adds.
+
+    Stored values on a lattice of step q carry a rounding error of variance q^2/12 that no model of
+    the loop can remove.  The lattice is read from the values (``ident.lattice``); it is named when
+    its variance is at least ``ROUNDING_SHARE`` of the model's remaining error, and the extended
+    error is what remains once it is taken out.  Its criterion treats that variance as known noise.
+    """
+    error = current.error_pct(record)
+    rounding = q * q / 12.0
+    if error <= 0 or rounding < ROUNDING_SHARE * error**2:
+        return None
+    left = max(error**2 - rounding, 1e-12 * error**2)
+    delta = record.n_fit * np.log(left / error**2) + np.log(record.n_fit)
+    return Model(
+        current.hypothesis,
+        current.fit,
+        current.criterion + float(delta),
+        (*current.causes, "quantization"),
+        q,
+        current.rss * left / error**2,
+        current.load_amplitude_pct,
+        current.spread,
+    )

@@ -1,0 +1,138 @@
+"""A diagnosis's models: a hypothesis with its valve fit and criterion, the candidates of a forward
+step, the diagnosis itself, and the catalogue's parameters a model names (``ident.diagnose``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ident.friction import Friction, simulated_pv
+from ident.record import Record
+from ident.valve_model import Hypothesis, ValveFit
+
+MAX_CAUSES = 4
+SPREAD_FIELDS = ("band", "stop", "s", "j")
+"""What ``ident.cause_fit.spread`` reads of each rival fit, % of span: the static band (fs / 12), the stop (fd / 12),
+Choudhury's S and J (``sim.valve.band_and_jump_pct``)."""
+NO_SPREAD = (0.0,) * len(SPREAD_FIELDS)
+MARGIN = 0.0
+"""Criterion improvement a cause must bring beyond its parameter's own price."""
+
+
+@dataclass(frozen=True)
+class Model:
+    """One fitted model: its hypothesis, fit, criterion and the causes it stands for."""
+
+    hypothesis: Hypothesis
+    fit: ValveFit
+    criterion: float
+    causes: tuple[str, ...] = ()
+    quantum_pct: float | None = None
+    rss_override: float | None = None
+    load_amplitude_pct: float = float("nan")
+    spread: tuple[float, ...] = NO_SPREAD
+    """Model uncertainty of ``SPREAD_FIELDS``, % of span, beyond the fit's own covariance: how much the
+    friction moves over the cause parameters and the rival causes the data allow (``ident.cause_fit.spread``)."""
+    profile: tuple[tuple[float, ValveFit, float], ...] = ()
+    """(value, fit, criterion) of the last cause's parameter where it was fitted in full."""
+
+    @property
+    def rss(self) -> float:
+        return self.fit.rss if self.rss_override is None else self.rss_override
+
+    def step_error_pct(self, record: Record) -> float:
+        """RMS of the one-sample PV prediction error (what the criterion weighs), % of span."""
+        return float(np.sqrt(self.rss / record.n_fit))
+
+    def error_pct(self, record: Record) -> float:
+        """RMS difference between measured PV and PV as the model simulates it from OP, % of span.
+
+        The simulation is open loop in the process (its offset and drift fitted): the figure a
+        plant engineer sees in the plot.  For a record on a lattice, the rounding's own variance
+        (q^2/12) is taken out: no model of the loop can remove it.
+        """
+        sim = simulated_pv(self.fit, record)
+        skip = record.skip
+        mse = float(np.mean((record.pv_pct[skip:] - sim[skip:]) ** 2))
+        if self.quantum_pct:
+            mse = max(mse - self.quantum_pct**2 / 12.0, 1e-12 * mse)
+        return float(np.sqrt(mse))
+
+
+@dataclass(frozen=True)
+class Candidate:
+    cause: str
+    parameters: dict[str, float]
+    error_pct: float | None
+    criterion: float | None
+    delta_criterion: float | None
+    """Against the model the cause was tried on: negative is better."""
+    accepted: bool = False
+    identifiable: bool = True
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    base: Model
+    extended: Model
+    candidates: dict[str, Candidate]
+    steps: list[dict[str, Candidate]]
+    base_friction: Friction
+    friction: Friction
+    linear_valve_delta: float
+    """Criterion of a valve without stiction minus the extended model's (positive: stiction earns its place)."""
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def causes(self) -> tuple[str, ...]:
+        return self.extended.causes
+
+    def parameters(self) -> dict[str, float]:
+        return cause_parameters(self.extended)
+
+    def gain_pct(self, record: Record) -> float:
+        """How much the extended model's fit error improves on the canonical's, %."""
+        base, ext = self.base.error_pct(record), self.extended.error_pct(record)
+        return float(100.0 * (1.0 - ext / base)) if base > 0 else 0.0
+
+
+def cause_parameters(model: Model) -> dict[str, float]:
+    h = model.hypothesis
+    out: dict[str, float] = {}
+    for cause in model.causes:
+        if cause == "dead_time":
+            out["dead_time_s"] = h.dynamics.dead_time_s
+        elif cause == "sensor_lag":
+            out["sensor_tau_s"] = h.dynamics.sensor_tau_s
+        elif cause == "process_type":
+            out["time_constant_s"] = float(h.dynamics.time_constant_s)
+        elif cause == "actuator_lag":
+            out["actuator_tau_s"] = h.actuator_tau_s
+        elif cause == "process_gain":
+            out["gain_ratio"] = model.fit.gain_ratio
+        elif cause == "external_oscillation":
+            out["osc_period_s"] = float(h.osc_period_s)
+            out["osc_amplitude_pct"] = model.load_amplitude_pct
+        elif cause == "quantization":
+            out["quantum_pct"] = float(model.quantum_pct)
+    return out
+
+
+# --- the searches: how each cause changes a hypothesis, and where its parameter is looked for ---
+
+
+APPLY: dict[str, Callable[[Hypothesis, float], Hypothesis]] = {
+    "dead_time": lambda h, v: replace(h, dynamics=replace(h.dynamics, dead_time_s=v)),
+    "sensor_lag": lambda h, v: replace(h, dynamics=replace(h.dynamics, sensor_tau_s=v)),
+    "process_type": lambda h, v: replace(h, dynamics=replace(h.dynamics, time_constant_s=v)),
+    # a plant loop differs from the level loop in gain and type at once: neither helps alone
+    "process_gain+process_type": lambda h, v: replace(
+        h, gain_free=True, dynamics=replace(h.dynamics, time_constant_s=v)
+    ),
+    "actuator_lag": lambda h, v: replace(h, actuator_tau_s=v),
+    "process_gain": lambda h, v: replace(h, gain_free=True),
+    "external_oscillation": lambda h, v: replace(h, osc_period_s=v),
+}
