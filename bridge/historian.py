@@ -13,30 +13,20 @@ from __future__ import annotations
 import csv
 import itertools
 import math
-import warnings as _warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from bridge.cells import ALIASES, GAP_TOLERANCE, find_column, finite, numbers, relabel_off_grid, row_numbers
 from bridge.dialect import Dialect, sniff
 from schemas.errors import InputError
 
-ALIASES = {
-    "t": ["t", "t_s", "time", "time_s", "timestamp", "seconds"],
-    "op": ["op", "op_pct", "out", "output", "controller_output", "cv", "mv_op"],
-    "pv": ["pv", "pv_pct", "process_value", "measurement", "y"],
-    "sp": ["sp", "sp_pct", "sv", "setpoint", "set_point"],
-    "mv": ["mv", "mv_pct", "valve", "valve_position", "position"],
-    "mode": ["mode", "auto", "man"],
-}
 EXPORT_SUFFIXES = (".csv", ".txt", ".tsv", ".parquet", ".pq")
 MAX_BYTES = 4 * 1024**3
 """Larger files are refused unread (they are read in blocks, so this bounds time, not memory)."""
 BLOCK_ROWS = 65536
-GAP_TOLERANCE = 0.01
-"""Relative deviation of a time step from the sample time that counts as a gap."""
 
 
 @dataclass(frozen=True)
@@ -177,7 +167,7 @@ class _Reader:
 
     def _columns(self, header: list[str]) -> dict[str, int]:
         self.header = [h.strip() for h in header]
-        idx = {f: _find(self.header, f, self.columns.get(f), self.name) for f in ALIASES}
+        idx = {f: find_column(self.header, f, self.columns.get(f), self.name) for f in ALIASES}
         for required in ("op", "pv"):
             if idx[required] is None:
                 raise InputError(
@@ -203,7 +193,7 @@ class _Reader:
                         return
                     rownums = None
                     if any(not r for r in rows) or reader.line_num - line_before != len(rows):
-                        rownums = _row_numbers(rows, line_before)
+                        rownums = row_numbers(rows, line_before)
                         rows = [r for r in rows if r]
                         if not rows:
                             continue
@@ -229,69 +219,8 @@ class _Reader:
         values = {}
         for field, i in idx.items():
             texts = [r[i] for r in rows]
-            values[field] = self._numbers(field, i, texts, row_of)
+            values[field] = numbers(self.name, field, self.header[i], texts, self.dialect.decimal, row_of)
         return values
-
-    def _numbers(self, field: str, i: int, texts: list[str], row_of) -> np.ndarray:
-        column = self.header[i]
-        raw = texts
-        if self.dialect.decimal == ",":
-            texts = [s.replace(",", ".") for s in texts]
-        try:
-            x = np.array(texts, dtype=np.float64)
-        except ValueError:
-            x = self._time_strings(raw, column, row_of) if field == "t" else None
-            if x is None:
-                for k, s in enumerate(texts):
-                    try:
-                        float(s)
-                    except ValueError:
-                        what = "an empty field" if not s.strip() else "not a number"
-                        raise InputError(
-                            f"{self.name}: row {row_of(k)}, column {column!r}: {raw[k]!r} is {what}"
-                        ) from None
-        self._finite(x, column, raw, row_of)
-        return x
-
-    def _time_strings(self, texts: list[str], column: str, row_of) -> np.ndarray | None:
-        """ISO 8601 times as seconds, or None when the first unreadable value is not a time either."""
-        with _warnings.catch_warnings():
-            _warnings.simplefilter("ignore")  # numpy warns that a UTC offset has no representation
-            try:
-                stamps = np.array([s.strip().replace("Z", "") for s in texts], dtype="datetime64[ms]")
-            except ValueError:
-                for k, s in enumerate(texts):
-                    try:
-                        float(s)
-                    except ValueError:
-                        try:
-                            np.datetime64(s.strip().replace("Z", ""), "ms")
-                        except ValueError:
-                            raise InputError(
-                                f"{self.name}: row {row_of(k)}, column {column!r}: {s!r} is neither seconds "
-                                "nor an ISO 8601 time"
-                            ) from None
-                return None
-        if np.isnat(stamps).any():
-            k = int(np.flatnonzero(np.isnat(stamps))[0])
-            raise InputError(f"{self.name}: row {row_of(k)}, column {column!r}: {texts[k]!r} is not a time")
-        return stamps.astype(np.int64) / 1000.0
-
-    def _finite(self, x: np.ndarray, column: str, raw, row_of) -> None:
-        bad = np.flatnonzero(~np.isfinite(x))
-        if bad.size:
-            k = int(bad[0])
-            raise InputError(
-                f"{self.name}: row {row_of(k)}, column {column!r}: {str(raw[k])!r}, expected a finite number "
-                f"({bad.size} such values in rows {row_of(k)}-{row_of(int(bad[-1]))})"
-            )
-        big = np.flatnonzero(np.abs(x) > 1e12)
-        if big.size and column.lower() not in ALIASES["t"]:
-            k = int(big[0])
-            raise InputError(
-                f"{self.name}: row {row_of(k)}, column {column!r}: {str(raw[k])!r} is no percent of span "
-                "(more than 1e12 in size); expected values of about 0-100"
-            )
 
     def _parquet_blocks(self) -> Iterator[_Block]:
         try:
@@ -329,12 +258,12 @@ class _Reader:
         if pa.types.is_timestamp(arr.type) or pa.types.is_date(arr.type):
             return arr.cast(pa.timestamp("ms")).to_numpy().astype(np.int64) / 1000.0
         if pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type):
-            return self._numbers(field, self.header.index(column), arr.to_pylist(), row_of)
+            return numbers(self.name, field, column, arr.to_pylist(), self.dialect.decimal, row_of)
         try:
             x = arr.to_numpy(zero_copy_only=False).astype(np.float64)
         except (TypeError, ValueError, pa.ArrowInvalid):
             raise InputError(f"{self.name}: column {column!r} is {arr.type}, expected numbers") from None
-        self._finite(x, column, x, row_of)
+        finite(self.name, x, column, x, row_of)
         return x
 
     # -- time -----------------------------------------------------------------------------------
@@ -346,7 +275,7 @@ class _Reader:
         t = block.values.get("t")
         if t is None:
             return
-        t, relabelled = _relabel_off_grid(t)
+        t, relabelled = relabel_off_grid(t)
         self.relabelled += relabelled
         block.values["t"] = t
         if self.ts is None and t.size > 1:
@@ -419,48 +348,3 @@ class _Reader:
             block.first + 2,
             rows_in_file,
         )
-
-
-def _row_numbers(rows: list[list[str]], line_before: int) -> list[int]:
-    """File rows of the non-empty rows of a block (blank lines skipped); quoted line breaks are
-    not expected in numeric exports, so each row is one line."""
-    out, line = [], line_before
-    for r in rows:
-        line += 1
-        if r:
-            out.append(line)
-    return out
-
-
-def _find(header: list[str], field: str, override: str | None, path: str) -> int | None:
-    if override is not None:
-        if override not in header:
-            raise InputError(f"{path}: no column {override!r} for {field} (columns: {', '.join(header)})")
-        return header.index(override)
-    lowered = [n.lower() for n in header]
-    for alias in ALIASES[field]:
-        if alias in lowered:
-            return lowered.index(alias)
-    return None
-
-
-def _relabel_off_grid(t: np.ndarray) -> tuple[np.ndarray, int]:
-    """Isolated rows stamped exactly one sample off the regular grid, relabelled onto it.
-
-    Some exports round a timestamp to its neighbour's (``t, t, t + 2 Ts``, or a first
-    row stamped ``0`` before ``2 Ts``): the samples are evenly spaced, the stamps are not.
-    Only isolated rows (under 5 %, never two in a row) exactly one step off qualify.
-    """
-    if t.size < 10:
-        return t, 0
-    ts = float(np.median(np.diff(t)))
-    if ts <= 0:
-        return t, 0
-    k = np.arange(t.size)
-    grid = float(np.median(t - k * ts)) + k * ts
-    off = np.abs(t - grid) > GAP_TOLERANCE * ts
-    if not off.any() or off.mean() >= 0.05 or np.any(off[1:] & off[:-1]):
-        return t, 0
-    if np.any(np.abs(np.abs(t - grid)[off] - ts) > GAP_TOLERANCE * ts):
-        return t, 0
-    return np.where(off, grid, t), int(off.sum())
