@@ -9,7 +9,7 @@ import re
 DEFAULT_PREFIX = "stiction/demo"
 SHARDS = 32
 """Shards of the sharded sample keys.  A loop's shard is a hash of its id; agents own shards (not
-single loops), as evenly as their number allows (``agent.core.assign``), and subscribe to their
+single loops), as evenly as their number allows (``agent.ownership.assign``), and subscribe to their
 shards' keys only, so that N agents each receive about 1/N of the samples.  Few on purpose: Zenoh
 matches every message against each subscription of the receiving session (about 0.2 us each here:
 256 subscriptions cost an agent 56 us a message, one costs 6 us); 32 shards of 10,000 loops hold

@@ -296,14 +296,14 @@ def test_a_replica_taking_over_late_does_not_report_a_window_the_dead_owner_had_
 
 def _reference_owner(agents, shard):
     """Plain rendezvous hashing, no cap: the agent ranking first for the shard."""
-    from agent.core import rank
+    from agent.ownership import rank
 
     return max(agents, key=lambda a: rank(a, f"shard/{shard}"))
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 5, 32])
 def test_shards_are_given_out_evenly_and_every_agent_computes_the_same(n):
-    from agent.core import assign
+    from agent.ownership import assign
     from schemas import keys
 
     agents = tuple(f"agent-{i}" for i in range(n))
@@ -323,7 +323,7 @@ def test_shards_are_given_out_evenly_and_every_agent_computes_the_same(n):
 
 
 def test_the_heir_of_a_shard_owns_it_once_its_owner_is_gone():
-    from agent.core import assign
+    from agent.ownership import assign
     from schemas import keys
 
     agents = ("a", "b", "c")
