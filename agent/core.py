@@ -21,12 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import ValidationError
-
-from agent.ownership import assign, rank
-from agent.window import RollingWindow
-from quantify.window import Reading, Window
-from schemas import keys
-from schemas.messages import SampleBatch
+from stiction.agent.ownership import assign, rank
+from stiction.agent.window import RollingWindow
+from stiction.quantify.window import Reading, Window
+from stiction.schemas import keys
+from stiction.schemas.messages import SampleBatch
 
 log = logging.getLogger(__name__)
 

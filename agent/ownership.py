@@ -6,7 +6,7 @@ from __future__ import annotations
 import hashlib
 from collections import Counter
 
-from schemas import keys
+from stiction.schemas import keys
 
 
 def rank(agent_id: str, loop_id: str) -> int:

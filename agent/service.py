@@ -19,16 +19,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from agent.core import AgentCore, CoreSettings
-from agent.sizing_plan import SizingPlan
-from quantify.assembly import assemble, needs_sizing
-from quantify.identified import lower_priority, size_in_worker, sizing_pool
-from quantify.pipeline import Quantifier, warm_up
-from schemas import keys
-from schemas.errors import StictionError
-from schemas.messages import AgentHealth, LoopTruth
-from schemas.report import StictionReport
+from stiction.agent.core import AgentCore, CoreSettings
+from stiction.agent.sizing_plan import SizingPlan
+from stiction.quantify.assembly import assemble, needs_sizing
+from stiction.quantify.identified import lower_priority, size_in_worker, sizing_pool
+from stiction.quantify.pipeline import Quantifier, warm_up
+from stiction.schemas import keys
+from stiction.schemas.errors import StictionError
+from stiction.schemas.messages import AgentHealth, LoopTruth
+from stiction.schemas.report import StictionReport
 
 log = logging.getLogger(__name__)
 

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ident.sizing import Sizing
-from quantify.assembly import assemble, needs_sizing
-from schemas.report import StictionReport
+from stiction.ident.sizing import Sizing
+from stiction.quantify.assembly import assemble, needs_sizing
+from stiction.schemas.report import StictionReport
 
 
 @dataclass(frozen=True)

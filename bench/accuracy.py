@@ -13,13 +13,12 @@ import time
 from dataclasses import replace
 
 import numpy as np
-
-from bench.baselines.ellipse import apparent_stiction
-from bench.baselines.hammerstein import hammerstein_search
-from quantify.features import thesis_window
-from quantify.pipeline import Quantifier, Window
-from sim.grid import case_specs, random_loops, training_specs
-from sim.loop import simulate
+from stiction.bench.baselines.ellipse import apparent_stiction
+from stiction.bench.baselines.hammerstein import hammerstein_search
+from stiction.quantify.features import thesis_window
+from stiction.quantify.pipeline import Quantifier, Window
+from stiction.sim.grid import case_specs, random_loops, training_specs
+from stiction.sim.loop import simulate
 
 HOLDOUT_SEED = 20261121
 

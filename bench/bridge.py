@@ -19,10 +19,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from bench.throughput import _proc_stats
-from bridge import zenoh_session
-from schemas import keys
+from stiction.bench.throughput import _proc_stats
+from stiction.bridge import zenoh_session
+from stiction.schemas import keys
 
 PREFIX = "bench/bridge"
 

@@ -22,15 +22,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from detect.training import SIM_SEED
+from stiction.detect.training import SIM_SEED
 
 METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")
 
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
-    from detect.shape import STICTION as SHAPE_STICTION
-    from detect.verdict import STEP_AT, STICTION_AT, STUCK_AT
+    from stiction.detect.shape import STICTION as SHAPE_STICTION
+    from stiction.detect.verdict import STEP_AT, STICTION_AT, STUCK_AT
 
     ramp, step = ev.stuck
     return {
@@ -43,7 +42,7 @@ def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
 
 
 def _blocked(op, pv) -> bool:
-    from ident.checks import blocking, data_checks
+    from stiction.ident.checks import blocking, data_checks
 
     return bool(blocking(data_checks(op, pv)))
 
@@ -57,8 +56,8 @@ def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
 
 
 def _family_set(n_per_cause: int, seed: int):
-    from detect.features import evidence
-    from sim.plant_families import family_loops, simulate_families, stable
+    from stiction.detect.features import evidence
+    from stiction.sim.plant_families import family_loops, simulate_families, stable
 
     loops = family_loops(n_per_cause, seed)
     rows = []
@@ -70,11 +69,11 @@ def _family_set(n_per_cause: int, seed: int):
 
 def bench_detect(measured: list[Path], n_per_class: int = 20, seed: int = 2026, train_per_class: int = 20) -> dict:
     """``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training."""
-    from bench.measured import labelled_exports
-    from detect import training
-    from detect.features import evidence
-    from detect.verdict import LEANS_AT, STICTION_AT
-    from sim.plant_families import FAMILIES
+    from stiction.bench.measured import labelled_exports
+    from stiction.detect import training
+    from stiction.detect.features import evidence
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+    from stiction.sim.plant_families import FAMILIES
 
     t0 = time.perf_counter()
     x_train, classes_train, stuck_train, family_train = training.simulated_set(train_per_class, SIM_SEED)
@@ -146,7 +145,7 @@ def bench_detect(measured: list[Path], n_per_class: int = 20, seed: int = 2026, 
 
 
 def print_table(fig: dict) -> None:
-    from detect.verdict import LEANS_AT, STICTION_AT
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT
 
     print("simulated families, leave-one-family-out (trained on the others): sensitivity / specificity, "
           "balanced accuracy")  # fmt: skip

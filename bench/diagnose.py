@@ -19,15 +19,14 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-
-from ident.diagnose import diagnose
-from ident.models import cause_parameters
-from ident.record import Record
-from ident.report import diagnosis_report
-from sim.extensions import CATALOGUE
-from sim.grid import EFFECT_RANGES, effect_loops
-from sim.loop import simulate
-from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
+from stiction.ident.diagnose import diagnose
+from stiction.ident.models import cause_parameters
+from stiction.ident.record import Record
+from stiction.ident.report import diagnosis_report
+from stiction.sim.extensions import CATALOGUE
+from stiction.sim.grid import EFFECT_RANGES, effect_loops
+from stiction.sim.loop import simulate
+from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 
 SEED = 20261122
 DEADBAND_WIDENS_PCT = PCT_OF_500LBF_PER_PCT_OF_SPAN / 2
@@ -147,7 +146,7 @@ def middle_extension(cause: str) -> dict[str, float]:
 
 
 def _quantify_rows(models_dir: Path | None, specs) -> list[list[float]]:
-    from quantify.pipeline import Quantifier, Window
+    from stiction.quantify.pipeline import Quantifier, Window
 
     q = Quantifier(models_dir)
     r = simulate(specs).kept()
@@ -161,8 +160,8 @@ def _fs_fd_mae(est: np.ndarray, truth: np.ndarray) -> float:
 
 def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progress=None) -> dict:
     """Quantify's error with the canonical models and with models retrained on each cause, same loops."""
-    from trainer.train import TrainSettings
-    from trainer.train import run as train
+    from stiction.trainer.train import TrainSettings
+    from stiction.trainer.train import run as train
 
     out = {}
     for c in causes:
@@ -176,7 +175,7 @@ def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progre
         trained_s = time.perf_counter() - started
         from dataclasses import replace
 
-        from sim.extensions import Extensions
+        from stiction.sim.extensions import Extensions
 
         specs = [replace(s, extensions=Extensions(**ext)) for s in effect_loops(c, per_cause, SEED + 1000)]
         truth = np.array([_truth(s) for s in specs])

@@ -15,8 +15,8 @@ from pathlib import Path
 
 
 def _diagnose_file(path: str) -> dict:
-    from bridge.historian import read_export
-    from ident.report import diagnose_loop
+    from stiction.bridge.historian import read_export
+    from stiction.ident.report import diagnose_loop
 
     export = read_export(path)
     report, _, _ = diagnose_loop(Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings)
@@ -33,7 +33,7 @@ def labels(folder: Path) -> dict[str, dict]:
 
 def labelled_exports(paths: list[Path]) -> list[tuple[str, bool, object]]:
     """``(tag, labelled sticky, Export)`` for every export of ``paths`` (folders or files) that has a label."""
-    from bridge.historian import expand_paths, read_export
+    from stiction.bridge.historian import expand_paths, read_export
 
     known: dict[str, dict] = {}
     for p in paths:
@@ -85,7 +85,7 @@ def markdown(figures: dict) -> str:
     def f(x, nd=2):
         return "–" if x is None else f"{x:.{nd}f}"
 
-    from sim.extensions import CATALOGUE
+    from stiction.sim.extensions import CATALOGUE
 
     head = "| loop | label | process identified | causes (parameters) | fit error canonical → extended "
     lines = [head + "| S ± se | J ± se | stiction ΔBIC |", "|---|---|---|---|---|---|---|---|"]

@@ -6,11 +6,10 @@ import time
 from dataclasses import replace
 
 import numpy as np
-
-from sim.grid import case_specs, training_specs
-from sim.loop import LoopState, advance, build_batch, disturbance_signals, simulate
-from sim.reference import IN_PER_PCT, RefState, reference_interval, reference_simulate
-from sim.valve import pct_to_lbf
+from stiction.sim.grid import case_specs, training_specs
+from stiction.sim.loop import LoopState, advance, build_batch, disturbance_signals, simulate
+from stiction.sim.reference import IN_PER_PCT, RefState, reference_interval, reference_simulate
+from stiction.sim.valve import pct_to_lbf
 
 
 def bench_sim(reference_loops: int = 3, duration_s: float = 2000.0, repeats: int = 3) -> dict:

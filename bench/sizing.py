@@ -22,10 +22,10 @@ _QUANTIFIER = None
 
 
 def _one(item) -> dict:
-    from ident.trust import MODEL_ERROR_J, MODEL_ERROR_S
-    from quantify.identified import quantify_sized
-    from quantify.pipeline import Quantifier, Window
-    from sim.valve import band_and_jump_pct, band_and_jump_se_pct
+    from stiction.ident.trust import MODEL_ERROR_J, MODEL_ERROR_S
+    from stiction.quantify.identified import quantify_sized
+    from stiction.quantify.pipeline import Quantifier, Window
+    from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct
 
     global _QUANTIFIER
     if _QUANTIFIER is None:
@@ -63,7 +63,7 @@ def _score(rows: list[dict], s: str, s_se: str | None, j: str | None = None, j_s
 
 
 def bench_sizing(n_per_class: int = 60, seed: int = 2030, workers: int = 2) -> dict:
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     t0 = time.perf_counter()
     loops = [loop for loop in plant_loops(n_per_class, seed) if loop.cause == "stiction"]

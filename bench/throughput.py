@@ -20,12 +20,11 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
-
-from bridge import zenoh_session
-from bridge.publish import SamplePublisher
-from schemas import keys
-from sim.publisher import batch, loop_specs
-from sim.stream import LoopStream
+from stiction.bridge import zenoh_session
+from stiction.bridge.publish import SamplePublisher
+from stiction.schemas import keys
+from stiction.sim.publisher import batch, loop_specs
+from stiction.sim.stream import LoopStream
 
 PREFIX = "bench/throughput"
 
@@ -79,7 +78,7 @@ def _loops(mix: str, n: int, window: int, n_live: int):
         raise ValueError(f"mix {mix!r}: canonical or plant")
     from types import SimpleNamespace
 
-    from sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
+    from stiction.sim.plant_loops import CLASSES, plant_loops, simulate_plant, stable
 
     total = window + n_live
     kept: list = []

@@ -8,8 +8,7 @@ from __future__ import annotations
 import warnings as _warnings
 
 import numpy as np
-
-from schemas.errors import InputError
+from stiction.schemas.errors import InputError
 
 GAP_TOLERANCE = 0.01
 """Relative deviation of a time step from the sample time that counts as a gap."""

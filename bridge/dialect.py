@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from schemas.errors import InputError
+from stiction.schemas.errors import InputError
 
 PARQUET_MAGIC = b"PAR1"
 SEPARATORS = (",", ";", "\t", "|")

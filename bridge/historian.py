@@ -18,10 +18,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from bridge.cells import ALIASES, GAP_TOLERANCE, find_column, finite, numbers, relabel_off_grid, row_numbers
-from bridge.dialect import Dialect, sniff
-from schemas.errors import InputError
+from stiction.bridge.cells import ALIASES, GAP_TOLERANCE, find_column, finite, numbers, relabel_off_grid, row_numbers
+from stiction.bridge.dialect import Dialect, sniff
+from stiction.schemas.errors import InputError
 
 EXPORT_SUFFIXES = (".csv", ".txt", ".tsv", ".parquet", ".pq")
 MAX_BYTES = 4 * 1024**3

@@ -14,9 +14,8 @@ import threading
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from schemas import keys
-from schemas.messages import MAX_BATCH_SAMPLES
+from stiction.schemas import keys
+from stiction.schemas.messages import MAX_BATCH_SAMPLES
 
 COLUMNS = ("op", "pv", "sp", "mv", "mode")
 DECIMALS = 6

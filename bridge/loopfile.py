@@ -6,9 +6,8 @@ import tomllib
 from pathlib import Path
 
 from pydantic import ValidationError
-
-from schemas.errors import InputError
-from schemas.loop_file import LoopFile
+from stiction.schemas.errors import InputError
+from stiction.schemas.loop_file import LoopFile
 
 
 def load(path: Path | str) -> LoopFile:

@@ -16,10 +16,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from bridge.sampler import Reading, Sampler
-from schemas.errors import InputError
-from schemas.loop_file import LoopFile
-from schemas.messages import BridgeHealth
+from stiction.bridge.sampler import Reading, Sampler
+from stiction.schemas.errors import InputError
+from stiction.schemas.loop_file import LoopFile
+from stiction.schemas.messages import BridgeHealth
 
 log = logging.getLogger(__name__)
 

@@ -14,9 +14,8 @@ import json
 import logging
 
 import numpy as np
-
-from bridge.history import SampleHistory
-from schemas import keys
+from stiction.bridge.history import SampleHistory
+from stiction.schemas import keys
 
 log = logging.getLogger(__name__)
 

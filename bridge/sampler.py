@@ -17,9 +17,8 @@ from collections import Counter, deque
 from dataclasses import dataclass
 
 import numpy as np
-
-from schemas.loop_file import LoopNodes
-from schemas.messages import MAX_BATCH_SAMPLES
+from stiction.schemas.loop_file import LoopNodes
+from stiction.schemas.messages import MAX_BATCH_SAMPLES
 
 REQUIRED = ("op", "pv")
 MAX_CATCH_UP = MAX_BATCH_SAMPLES

@@ -11,7 +11,7 @@ import json
 import socket
 from pathlib import Path
 
-from schemas.errors import InputError
+from stiction.schemas.errors import InputError
 
 
 def free_loopback_port() -> int:

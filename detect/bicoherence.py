@@ -15,9 +15,8 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-
-from detect import kernels
-from detect.oscillation import detrend
+from stiction.detect import kernels
+from stiction.detect.oscillation import detrend
 
 NGI_MIN = 0.001
 NLI_MIN = 0.01

@@ -7,8 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import median_filter
-
-from detect import bicoherence, horch, kernels, oscillation, setpoint, shape
+from stiction.detect import bicoherence, horch, kernels, oscillation, setpoint, shape
 
 NAMES = (
     "regularity_log",

@@ -15,8 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from detect.oscillation import detrend
+from stiction.detect.oscillation import detrend
 
 STICTION = 2 / 3
 NO_STICTION = 1 / 3

@@ -16,8 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from detect import kernels
+from stiction.detect import kernels
 
 REGULAR = 1.5
 """Thornhill's threshold is r > 1; on 100 windows each of random walks, AR(1) and smoothed white noise

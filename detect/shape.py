@@ -11,9 +11,8 @@ for none.
 from __future__ import annotations
 
 import numpy as np
-
-from detect import kernels
-from detect.oscillation import detrend, half_cycles
+from stiction.detect import kernels
+from stiction.detect.oscillation import detrend, half_cycles
 
 STICTION = 0.6
 NO_STICTION = 0.4

@@ -9,12 +9,11 @@ with or without a slip: backlash counts); otherwise it is the look-alike it was 
 from __future__ import annotations
 
 import numpy as np
-
-from detect.features import evidence
-from detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
-from sim.grid import random_loops
-from sim.loop import simulate
-from sim.plant_families import FAMILIES, family_loops, simulate_families, stable
+from stiction.detect.features import evidence
+from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
+from stiction.sim.grid import random_loops
+from stiction.sim.loop import simulate
+from stiction.sim.plant_families import FAMILIES, family_loops, simulate_families, stable
 
 LOOK_ALIKE_CLASS = {
     "sine": "external_oscillation",

@@ -19,8 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize
-
-from detect.features import NAMES, Evidence
+from stiction.detect.features import NAMES, Evidence
 
 STICTION_AT = 0.5
 """Stiction probability from which the verdict is ``stiction``: the threshold of the best balanced

@@ -8,15 +8,14 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-
-from ident.fit import criterion, fit_valve
-from ident.friction import Friction, effective_samples, load_amplitude_pct
-from ident.models import APPLY, NO_SPREAD, Model
-from ident.process import Dynamics
-from ident.record import Record, process_sign
-from ident.stem import StemReader
-from ident.valve_model import Hypothesis, ValveFit
-from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
+from stiction.ident.fit import criterion, fit_valve
+from stiction.ident.friction import Friction, effective_samples, load_amplitude_pct
+from stiction.ident.models import APPLY, NO_SPREAD, Model
+from stiction.ident.process import Dynamics
+from stiction.ident.record import Record, process_sign
+from stiction.ident.stem import StemReader
+from stiction.ident.valve_model import Hypothesis, ValveFit
+from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
 
 
 def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
@@ -92,7 +91,7 @@ class Fitter:
 
     def with_slips(self, hyp: Hypothesis, slips) -> ValveFit | None:
         """``hyp`` fitted with given slips (no search)."""
-        from ident.fit import refit
+        from stiction.ident.fit import refit
 
         return refit(self.record, hyp, slips)
 

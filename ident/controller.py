@@ -17,8 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from ident import kernels
+from stiction.ident import kernels
 
 MIN_EXPLAINED = 0.999
 """Share of OP's variance the PI must explain for its Kc and Ti to identify a controller."""

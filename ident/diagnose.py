@@ -19,9 +19,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-
-from ident import checks, lattice
-from ident.cause_fit import (
+from stiction.ident import checks, lattice
+from stiction.ident.cause_fit import (
     CAUSES_FITTED_IN_FULL,
     MAX_FULL_CAUSES,
     SEARCHED,
@@ -36,10 +35,10 @@ from ident.cause_fit import (
     spread,
     widened,
 )
-from ident.friction import friction
-from ident.models import APPLY, MARGIN, MAX_CAUSES, Candidate, Diagnosis, Model, cause_parameters
-from ident.record import Record
-from ident.valve_model import Hypothesis
+from stiction.ident.friction import friction
+from stiction.ident.models import APPLY, MARGIN, MAX_CAUSES, Candidate, Diagnosis, Model, cause_parameters
+from stiction.ident.record import Record
+from stiction.ident.valve_model import Hypothesis
 
 
 def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple[dict[str, Candidate], Model]:
@@ -165,7 +164,7 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
 
 
 def _params_of(move: str) -> tuple[str, ...]:
-    from sim.extensions import CATALOGUE
+    from stiction.sim.extensions import CATALOGUE
 
     return tuple(p for c in names(move) for p in CATALOGUE[c])
 

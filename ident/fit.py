@@ -26,13 +26,12 @@ from __future__ import annotations
 from dataclasses import fields, replace
 
 import numpy as np
-
-from ident import kernels
-from ident.objective import nuisance_basis, project_out
-from ident.process import TransferFunction, transfer_function
-from ident.record import Record, process_sign
-from ident.stem import StemPath
-from ident.valve_model import (
+from stiction.ident import kernels
+from stiction.ident.objective import nuisance_basis, project_out
+from stiction.ident.process import TransferFunction, transfer_function
+from stiction.ident.record import Record, process_sign
+from stiction.ident.stem import StemPath
+from stiction.ident.valve_model import (
     Drive,
     Hypothesis,
     Slips,

@@ -7,11 +7,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from ident.objective import nuisance_basis, project_out
-from ident.record import Record
-from ident.valve_model import ValveFit, drive_of, path_regressors
-from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, band_and_jump_pct, lbf_to_pct, pct_to_lbf, stop_residual_in
+from stiction.ident.objective import nuisance_basis, project_out
+from stiction.ident.record import Record
+from stiction.ident.valve_model import ValveFit, drive_of, path_regressors
+from stiction.sim.valve import (
+    PCT_OF_500LBF_PER_PCT_OF_SPAN,
+    VALVE,
+    band_and_jump_pct,
+    lbf_to_pct,
+    pct_to_lbf,
+    stop_residual_in,
+)
 
 
 @dataclass(frozen=True)

@@ -7,10 +7,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-
-from ident.friction import Friction, simulated_pv
-from ident.record import Record
-from ident.valve_model import Hypothesis, ValveFit
+from stiction.ident.friction import Friction, simulated_pv
+from stiction.ident.record import Record
+from stiction.ident.valve_model import Hypothesis, ValveFit
 
 MAX_CAUSES = 4
 SPREAD_FIELDS = ("band", "stop", "s", "j")

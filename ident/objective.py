@@ -9,9 +9,8 @@ and dynamics (variable projection, Golub & Pereyra 1973).
 from __future__ import annotations
 
 import numpy as np
-
-from ident.process import TransferFunction
-from ident.record import Record, orthonormal_basis
+from stiction.ident.process import TransferFunction
+from stiction.ident.record import Record, orthonormal_basis
 
 
 def nuisance_basis(record: Record, tf: TransferFunction, omega_rad_s: float | None = None) -> np.ndarray:

@@ -17,8 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.signal import lfilter
-
-from sim.process import LOOPS, ProcessModel, continuous_plant, discretise
+from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
 
 NOMINAL = LOOPS["level"]
 

@@ -5,17 +5,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-from detect.features import stuck_travel
-from ident.cause_fit import residual_periods
-from ident.checks import blocking, data_checks, impossible_friction
-from ident.friction import Friction
-from ident.models import Diagnosis, Model, cause_parameters
-from ident.process import NOMINAL
-from ident.record import Record
-from ident.trust import stuck_travel_contradicts, with_model_error
-from ident.valve_model import ValveFit
-from schemas import diagnosis as schema
+from stiction.detect.features import stuck_travel
+from stiction.ident.cause_fit import residual_periods
+from stiction.ident.checks import blocking, data_checks, impossible_friction
+from stiction.ident.friction import Friction
+from stiction.ident.models import Diagnosis, Model, cause_parameters
+from stiction.ident.process import NOMINAL
+from stiction.ident.record import Record
+from stiction.ident.trust import stuck_travel_contradicts, with_model_error
+from stiction.ident.valve_model import ValveFit
+from stiction.schemas import diagnosis as schema
 
 
 def _opt(x) -> float | None:
@@ -193,10 +192,10 @@ def diagnose_loop(
     up to MAX_SAMPLES, with a warning when more were given), the valve checked against a measured
     stem where there is one.  Returns (report, record, diagnosis); raises InputError on a record
     too short to diagnose."""
-    from ident.diagnose import MAX_CAUSES, diagnose
-    from ident.record import choose_horizon
-    from ident.valve_check import check_valve
-    from schemas.errors import InputError
+    from stiction.ident.diagnose import MAX_CAUSES, diagnose
+    from stiction.ident.record import choose_horizon
+    from stiction.ident.valve_check import check_valve
+    from stiction.schemas.errors import InputError
 
     keep = last or MAX_SAMPLES
     warnings = list(warnings)

@@ -7,8 +7,7 @@ piecewise constant plus noise; the pieces' ends are the slips.
 from __future__ import annotations
 
 import numpy as np
-
-from ident import kernels
+from stiction.ident import kernels
 
 
 def segment_ends(f: np.ndarray, penalty: np.ndarray) -> list[list[int]]:

@@ -28,9 +28,8 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-
-from schemas.diagnosis import Process
-from sim.valve import friction_pct, friction_se_pct
+from stiction.schemas.diagnosis import Process
+from stiction.sim.valve import friction_pct, friction_se_pct
 
 
 @dataclass(frozen=True)
@@ -61,8 +60,8 @@ class Sizing:
 def size(op_pct: np.ndarray, pv_pct: np.ndarray, ts_s: float, name: str = "loop", sp_pct=None) -> Sizing:
     """Diagnose the record and read S and J with the model error added (seconds of CPU a loop);
     ``sp_pct``, the setpoint where recorded, lets a stuck setpoint step bound the band too."""
-    from ident.friction import simulated_pv
-    from ident.report import diagnose_loop
+    from stiction.ident.friction import simulated_pv
+    from stiction.ident.report import diagnose_loop
 
     report, record, d = diagnose_loop(name, np.asarray(op_pct, float), np.asarray(pv_pct, float), ts_s, sp=sp_pct)
     return replace(from_report(report), model_pv_pct=simulated_pv(d.extended.fit, record))

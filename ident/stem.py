@@ -16,10 +16,9 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-
-from ident import lattice
-from ident.process import Dynamics, transfer_function
-from ident.segment import segment_ends
+from stiction.ident import lattice
+from stiction.ident.process import Dynamics, transfer_function
+from stiction.ident.segment import segment_ends
 
 SEGMENT_PENALTY = 2.0
 """Penalty per piece in units of the input estimate's noise variance times log(N) (BIC: level and place)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from sim.valve import friction_se_pct
+from stiction.sim.valve import friction_se_pct
 
 MODEL_ERROR_S = 0.20
 """Standard error of S from the model's mismatch, as a share of S (seeds 2026, 2027 of ``sim.plant_loops``)."""

@@ -11,13 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from ident.fit import criterion, fit_valve
-from ident.friction import friction, stem_path
-from ident.process import NOMINAL, Dynamics
-from ident.record import Record
-from ident.stem import StemReader
-from ident.valve_model import Hypothesis, ValveFit
+from stiction.ident.fit import criterion, fit_valve
+from stiction.ident.friction import friction, stem_path
+from stiction.ident.process import NOMINAL, Dynamics
+from stiction.ident.record import Record
+from stiction.ident.stem import StemReader
+from stiction.ident.valve_model import Hypothesis, ValveFit
 
 LAG_GRID_TS = (0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 3.0, 5.0)
 

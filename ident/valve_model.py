@@ -12,12 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-
-from ident.objective import project_out
-from ident.process import Dynamics, TransferFunction
-from ident.record import Record
-from ident.stem import StemPath
-from sim.valve import VALVE
+from stiction.ident.objective import project_out
+from stiction.ident.process import Dynamics, TransferFunction
+from stiction.ident.record import Record
+from stiction.ident.stem import StemPath
+from stiction.sim.valve import VALVE
 
 SLIP_S = VALVE.viscous_lbf_s_per_in / VALVE.spring_lbf_per_in
 """Flow-time a slip of 1 % withholds (the stem's two time constants, ``sim.valve``)."""

@@ -10,9 +10,8 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-
-from quantify import features, inlpca, physical
-from quantify.acf import acf_period
+from stiction.quantify import features, inlpca, physical
+from stiction.quantify.acf import acf_period
 
 ROUGHNESS_NOISY = 0.05
 """Median |second difference| over median |first difference| of OP above which a window is noisy.

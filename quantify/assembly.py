@@ -15,11 +15,11 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
-from ident.sizing import Sizing
-from quantify.window import Window
-from schemas.report import Estimate, ProcessInfo, StictionReport
-from sim.process import LOOPS
-from sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
+from stiction.ident.sizing import Sizing
+from stiction.quantify.window import Window
+from stiction.schemas.report import Estimate, ProcessInfo, StictionReport
+from stiction.sim.process import LOOPS
+from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
 
 NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
 NOT_READ_WARNING = (

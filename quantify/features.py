@@ -13,8 +13,7 @@
 from __future__ import annotations
 
 import numpy as np
-
-from quantify.inlpca import InlpcaFit
+from stiction.quantify.inlpca import InlpcaFit
 
 THESIS_WINDOW = 100
 CURVE_POINTS = 32

@@ -14,16 +14,15 @@ import contextlib
 import os
 
 import numpy as np
-
-from ident.sizing import Sizing
-from quantify.assembly import assemble, needs_sizing, with_model
-from schemas.report import StictionReport
+from stiction.ident.sizing import Sizing
+from stiction.quantify.assembly import assemble, needs_sizing, with_model
+from stiction.schemas.report import StictionReport
 
 
 def size_safely(op: np.ndarray, pv: np.ndarray, ts_s: float, loop_id: str, sp=None) -> Sizing:
     """``ident.sizing.size``, a failure of the identification becoming the reason nothing was read."""
-    from ident.sizing import size
-    from schemas.errors import StictionError
+    from stiction.ident.sizing import size
+    from stiction.schemas.errors import StictionError
 
     try:
         return size(op, pv, ts_s, loop_id, sp)

@@ -15,8 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from quantify import inlpca_kernel
+from stiction.quantify import inlpca_kernel
 
 
 @dataclass(frozen=True)

@@ -24,10 +24,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from ident.segment import noise_variance, segment_ends
-from sim.process import LOOPS
-from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
+from stiction.ident.segment import noise_variance, segment_ends
+from stiction.sim.process import LOOPS
+from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
 
 LEVEL_GAIN_PER_S = LOOPS["level"].gain
 SETTLE_SAMPLES = 5  # the MV recursion forgets its start by a factor ~0.012 a sample

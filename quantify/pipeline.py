@@ -18,18 +18,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from detect import features
-from detect.training import DETECTOR_FILE
-from detect.verdict import Detector, decide
-from ident import controller
-from ident.checks import blocking, data_checks
-from quantify import inlpca, policy
-from quantify.analysis import analyse_where
-from quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
-from quantify.predictor import DEFAULT_MODELS_DIR, load_models, model_version
-from quantify.window import Reading, Window
-from schemas.report import StictionReport
+from stiction.detect import features
+from stiction.detect.training import DETECTOR_FILE
+from stiction.detect.verdict import Detector, decide
+from stiction.ident import controller
+from stiction.ident.checks import blocking, data_checks
+from stiction.quantify import inlpca, policy
+from stiction.quantify.analysis import analyse_where
+from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
+from stiction.quantify.predictor import DEFAULT_MODELS_DIR, load_models, model_version
+from stiction.quantify.window import Reading, Window
+from stiction.schemas.report import StictionReport
 
 STAGES = ("verdict", "readings", "report")
 """The pipeline's stages: data checks, evidence and verdict; INLPCA, slips and networks; the report's assembly."""

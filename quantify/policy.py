@@ -14,13 +14,12 @@ All three read the thesis's level loop: where its process is neither declared no
 from __future__ import annotations
 
 import numpy as np
-
-from detect.verdict import Verdict
-from ident import controller
-from ident.checks import impossible_friction
-from sim.loop import TS_S
-from sim.process import LOOPS
-from sim.valve import band_and_jump_pct, band_and_jump_se_pct
+from stiction.detect.verdict import Verdict
+from stiction.ident import controller
+from stiction.ident.checks import impossible_friction
+from stiction.sim.loop import TS_S
+from stiction.sim.process import LOOPS
+from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct
 
 PHYSICAL_MAX_SE_PCT = 0.25
 SEGMENTED_MAX_SE_PCT = 0.5

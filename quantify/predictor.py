@@ -9,11 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import onnxruntime as ort
-
-from quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
-from quantify.inlpca import InlpcaSettings
-from schemas.errors import StictionError
-from schemas.model_card import CARD_FORMAT, ModelCard
+from stiction.quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
+from stiction.quantify.inlpca import InlpcaSettings
+from stiction.schemas.errors import StictionError
+from stiction.schemas.model_card import CARD_FORMAT, ModelCard
 
 log = logging.getLogger(__name__)
 

@@ -8,8 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from schemas.errors import InputError
+from stiction.schemas.errors import InputError
 
 MIN_SAMPLES = 100
 """The thesis' window; the ACF then finds a period only for cycles up to about 50 samples."""

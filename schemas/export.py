@@ -8,11 +8,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from schemas.diagnosis import DiagnosisReport
-from schemas.loop_file import LoopFile
-from schemas.messages import AgentHealth, BridgeHealth, LoopTruth, SampleBatch
-from schemas.model_card import ModelCard
-from schemas.report import StictionReport
+from stiction.schemas.diagnosis import DiagnosisReport
+from stiction.schemas.loop_file import LoopFile
+from stiction.schemas.messages import AgentHealth, BridgeHealth, LoopTruth, SampleBatch
+from stiction.schemas.model_card import ModelCard
+from stiction.schemas.report import StictionReport
 
 MODELS = {
     "sample_batch": SampleBatch,

@@ -17,8 +17,7 @@ from __future__ import annotations
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
-
-from schemas import keys
+from stiction.schemas import keys
 
 NODE_ID = r"^(ns=\d+;|nsu=[^;]+;)?[isgb]=.+$"
 """An OPC UA node id in its string form: ``ns=2;s=Tag.PV``, ``ns=3;i=1042``, ``i=2258``."""

@@ -5,8 +5,7 @@ from __future__ import annotations
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-
-from schemas.report import SCHEMA_VERSION
+from stiction.schemas.report import SCHEMA_VERSION
 
 MAX_BATCH_SAMPLES = 3600
 """An hour of 1 s samples: larger batches are refused (split them)."""

@@ -11,9 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from sim.extensions import backlash
-from sim.valve import Friction, lagged_valve_step, valve_step
+from stiction.sim.extensions import backlash
+from stiction.sim.valve import Friction, lagged_valve_step, valve_step
 
 
 @dataclass(frozen=True)

@@ -15,9 +15,8 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-
-from sim.loop import SimResult
-from sim.valve import band_and_jump_pct
+from stiction.sim.loop import SimResult
+from stiction.sim.valve import band_and_jump_pct
 
 GRID_FORMAT_VERSION = 1
 

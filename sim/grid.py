@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-
-from sim.disturbance import Disturbance
-from sim.extensions import Extensions
-from sim.loop import LoopSpec
-from sim.valve import lbf_to_pct
+from stiction.sim.disturbance import Disturbance
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec
+from stiction.sim.valve import lbf_to_pct
 
 
 def training_grid_lbf() -> list[tuple[float, float]]:

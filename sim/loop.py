@@ -20,12 +20,11 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
-
-from sim.actuator import actuate
-from sim.disturbance import Disturbance, rms, unit_shape
-from sim.extensions import Extensions
-from sim.process import LOOPS, ProcessModel, continuous_plant, discretise
-from sim.valve import Friction, pct_to_lbf
+from stiction.sim.actuator import actuate
+from stiction.sim.disturbance import Disturbance, rms, unit_shape
+from stiction.sim.extensions import Extensions
+from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
+from stiction.sim.valve import Friction, pct_to_lbf
 
 TS_S = 1.0
 DURATION_S = 2000.0

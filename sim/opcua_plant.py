@@ -17,9 +17,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from schemas.loop_file import LoopFile, LoopNodes, OpcuaServer
-from sim.publisher import loop_specs
-from sim.stream import LoopStream
+from stiction.schemas.loop_file import LoopFile, LoopNodes, OpcuaServer
+from stiction.sim.publisher import loop_specs
+from stiction.sim.stream import LoopStream
 
 log = logging.getLogger(__name__)
 

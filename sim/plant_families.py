@@ -34,13 +34,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from sim.disturbance import unit_shape
-from sim.extensions import Extensions
-from sim.loop import LoopSpec, build_batch, run_batch
-from sim.plant_loops import by_sample_interval
-from sim.process import ProcessModel
-from sim.valve import band_and_jump_pct
+from stiction.sim.disturbance import unit_shape
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec, build_batch, run_batch
+from stiction.sim.plant_loops import by_sample_interval
+from stiction.sim.process import ProcessModel
+from stiction.sim.valve import band_and_jump_pct
 
 FAMILIES = ("flow", "level", "slow", "detuned")
 FAULTS = ("stick_slip", "he", "backlash", "stick_backlash")

@@ -20,12 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from sim.disturbance import unit_shape
-from sim.extensions import Extensions
-from sim.loop import LoopSpec, build_batch, external_oscillation, run_batch
-from sim.process import ProcessModel
-from sim.valve import band_and_jump_pct
+from stiction.sim.disturbance import unit_shape
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec, build_batch, external_oscillation, run_batch
+from stiction.sim.process import ProcessModel
+from stiction.sim.valve import band_and_jump_pct
 
 CLASSES = ("stiction", "external_oscillation", "tuning", "deadband", "quantization", "noise")
 WINDOW_SAMPLES = 600

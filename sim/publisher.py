@@ -15,14 +15,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-
-from bridge.publish import SamplePublisher
-from schemas import keys
-from schemas.messages import LoopTruth
-from sim.grid import random_disturbance
-from sim.loop import LoopSpec
-from sim.stream import LoopStream
-from sim.valve import band_and_jump_pct
+from stiction.bridge.publish import SamplePublisher
+from stiction.schemas import keys
+from stiction.schemas.messages import LoopTruth
+from stiction.sim.grid import random_disturbance
+from stiction.sim.loop import LoopSpec
+from stiction.sim.stream import LoopStream
+from stiction.sim.valve import band_and_jump_pct
 
 log = logging.getLogger(__name__)
 

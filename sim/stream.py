@@ -13,9 +13,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-
-from sim.disturbance import rms, unit_shape
-from sim.loop import (
+from stiction.sim.disturbance import rms, unit_shape
+from stiction.sim.loop import (
     DURATION_S,
     TS_S,
     WARMUP_S,

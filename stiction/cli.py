@@ -11,7 +11,7 @@ import traceback
 import warnings
 from pathlib import Path
 
-from schemas.errors import StictionError
+from stiction.schemas.errors import StictionError
 
 COMMANDS = {
     "demo": "the main job: simulator, agent and live table in one process, then a summary",

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import threading
 
-from schemas import keys
-from schemas.messages import LoopTruth
-from schemas.report import StictionReport
+from stiction.schemas import keys
+from stiction.schemas.messages import LoopTruth
+from stiction.schemas.report import StictionReport
 
 
 class Dashboard:

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from schemas.errors import InputError
-from schemas.report import StictionReport
 from stiction.ranking import ORDER, rank_key
+from stiction.schemas.errors import InputError
+from stiction.schemas.report import StictionReport
 
 PAGE_NAME = "stiction-report.html"
 FIGURE_DPI = 62

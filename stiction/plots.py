@@ -76,7 +76,7 @@ def plot_loop(out, window, report, details, title: bool = True, dpi: int = 90):
 
 
 def _diagnosis_title(report) -> str:
-    from sim.extensions import CATALOGUE
+    from stiction.sim.extensions import CATALOGUE
 
     causes = ", ".join(
         f"{c} ("
@@ -99,7 +99,7 @@ def _diagnosis_title(report) -> str:
 def plot_diagnosis(out: Path, record, d, report) -> Path:
     """Measured PV against the canonical and the extended model; OP and the model's stem; the OP-PV
     overlay; the residuals' spectra.  The causes and the gain in the title."""
-    from ident.friction import simulated_pv, stem_path
+    from stiction.ident.friction import simulated_pv, stem_path
 
     t = record.t_s
     fig, axes = plt.subplots(2, 2, figsize=(14, 8), gridspec_kw={"width_ratios": [1.7, 1]})

@@ -10,8 +10,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from schemas.errors import InputError
-from schemas.report import StictionReport
+from stiction.schemas.errors import InputError
+from stiction.schemas.report import StictionReport
 
 ORDER = {"stiction": 0, "other_cause": 1, "no_oscillation": 2, "bad_data": 3}
 COLUMNS = ("rank", "loop", "verdict", "stiction_probability", "s_pct", "s_se_pct", "j_pct", "j_se_pct",

@@ -7,9 +7,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bridge.zenoh_session import build, open_session
-from schemas import keys
-from schemas.errors import InputError
+from stiction.bridge.zenoh_session import build, open_session
+from stiction.schemas import keys
+from stiction.schemas.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser, listen_default: bool = True) -> None:
@@ -43,7 +43,7 @@ def samples_keys(args) -> str:
 
 def publisher(args, session):
     """The ``SamplePublisher`` the publisher flags ask for."""
-    from bridge.publish import SamplePublisher
+    from stiction.bridge.publish import SamplePublisher
 
     if args.history < 0:
         raise InputError("--history must be 0 or more samples")

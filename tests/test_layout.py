@@ -41,16 +41,39 @@ def _imports(path: Path) -> set[str]:
     return out
 
 
+def _package_of(module: str) -> str | None:
+    """The folder a module name lives in: ``stiction.sim.valve`` -> ``sim``, ``stiction.cli`` ->
+    ``stiction``, a bare ``sim.valve`` -> ``sim`` (wrong: see below); None outside the product."""
+    parts = module.split(".")
+    if parts[0] == "stiction":
+        return parts[1] if len(parts) > 1 and parts[1] in LAYER else "stiction"
+    return parts[0] if parts[0] in LAYER else None
+
+
 def test_imports_point_one_way():
     wrong = []
     for package in PACKAGES:
         for p in sorted((ROOT / package).rglob("*.py")):
             for module in _imports(p):
-                top = module.split(".")[0]
-                if top not in LAYER or top == package:
+                top = _package_of(module)
+                if top is None or top == package:
                     continue
                 same = LAYER[top] == LAYER[package] and (package, top) != ("sim", "bridge")
                 upward = LAYER[top] > LAYER[package] or same
                 if upward:
                     wrong.append(f"{p.relative_to(ROOT)} imports {module}")
     assert not wrong, wrong
+
+
+def test_every_import_names_the_installed_namespace():
+    """``pip install`` puts one name into site-packages, ``stiction``: every module of the product and
+    of the tests imports the product's packages under it (a bare ``import schemas`` would clash with
+    any other distribution's ``schemas``, and load a second copy of the module in a checkout)."""
+    bare = [
+        f"{p.relative_to(ROOT)} imports {module}"
+        for folder in (*PACKAGES, "tests")
+        for p in sorted((ROOT / folder).rglob("*.py"))
+        for module in _imports(p)
+        if module.split(".")[0] in LAYER and module.split(".")[0] != "stiction"
+    ]
+    assert not bare, bare

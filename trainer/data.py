@@ -7,11 +7,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-
-from quantify.analysis import analyse
-from sim.extensions import Extensions
-from sim.grid import random_disturbance, training_specs
-from sim.loop import simulate
+from stiction.quantify.analysis import analyse
+from stiction.sim.extensions import Extensions
+from stiction.sim.grid import random_disturbance, training_specs
+from stiction.sim.loop import simulate
 
 WINDOW_S = 1000
 
@@ -33,7 +32,7 @@ def thesis_set(extensions: Extensions | None = None) -> Dataset:
     """Thesis 4.6: the 1275 noise-free patterns, one realisation, 100 OP samples from the first cycle."""
     specs = training_specs(extensions=extensions)
     r = simulate(specs).kept()
-    from quantify.features import thesis_window
+    from stiction.quantify.features import thesis_window
 
     inputs = thesis_window(r.op)
     targets = np.array([[s.fs_pct, s.fd_pct] for s in specs])

@@ -11,18 +11,17 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from stiction.quantify.analysis import analyse
+from stiction.quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
+from stiction.quantify.inlpca import InlpcaSettings
+from stiction.schemas.model_card import ModelCard, TensorSpec
+from stiction.sim.extensions import Extensions
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import simulate
+from stiction.trainer import data, nets
+from stiction.trainer.export import export
+from stiction.trainer.fit import FitSettings, fit
 from tqdm import tqdm
-
-from quantify.analysis import analyse
-from quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
-from quantify.inlpca import InlpcaSettings
-from schemas.model_card import ModelCard, TensorSpec
-from sim.extensions import Extensions
-from sim.grid import case_specs
-from sim.loop import simulate
-from trainer import data, nets
-from trainer.export import export
-from trainer.fit import FitSettings, fit
 
 log = logging.getLogger(__name__)
 

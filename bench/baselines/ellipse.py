@@ -13,9 +13,8 @@ It does not give fd.
 from __future__ import annotations
 
 import numpy as np
-
-from quantify.acf import acf_period
-from sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
+from stiction.quantify.acf import acf_period
+from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 
 
 def _band_pass(x: np.ndarray, period_s: float, ts_s: float) -> np.ndarray:

@@ -15,9 +15,8 @@ candidate of every window at once.
 from __future__ import annotations
 
 import numpy as np
-
-from quantify.physical import LEVEL_GAIN_PER_S
-from sim.valve import FRICTION_FULL_SCALE_LBF, VALVE
+from stiction.quantify.physical import LEVEL_GAIN_PER_S
+from stiction.sim.valve import FRICTION_FULL_SCALE_LBF, VALVE
 
 LBF_PER_PCT_FRICTION = FRICTION_FULL_SCALE_LBF / 100.0
 HORIZON = 5

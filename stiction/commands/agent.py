@@ -8,11 +8,11 @@ import os
 import socket
 from pathlib import Path
 
-from bridge import zenoh_session
-from schemas import keys
-from schemas.errors import InputError
 from stiction import zenoh_config
+from stiction.bridge import zenoh_session
 from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
+from stiction.schemas import keys
+from stiction.schemas.errors import InputError
 from stiction.status import Every, agent_line
 
 log = logging.getLogger(__name__)
@@ -56,7 +56,7 @@ def open_sink(mode: str | None):
     if not (mode in ("spawn", "serve") or (mode.startswith("save:") and len(mode) > 5)):
         raise InputError(f"--rerun {mode!r}: expected save:PATH, spawn or serve")
     try:
-        from agent.viewer import RerunSink
+        from stiction.agent.viewer import RerunSink
     except ImportError:
         raise InputError("--rerun needs the viewer extra: pip install -e '.[viewer]'") from None
     sink = RerunSink(mode)
@@ -67,8 +67,8 @@ def open_sink(mode: str | None):
 
 def run(args: argparse.Namespace) -> int:
 
-    from agent.core import CoreSettings
-    from agent.service import AgentService, AgentSettings
+    from stiction.agent.core import CoreSettings
+    from stiction.agent.service import AgentService, AgentSettings
 
     if args.size_every < 0:
         raise InputError(f"--size-every {args.size_every:g}: minutes, at least 0 (0: never)")

@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from schemas.errors import InputError
+from stiction.schemas.errors import InputError
 
 
 def _plain(x):
@@ -107,7 +107,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _host(figures: dict) -> dict:
-    from bench.host import machine
+    from stiction.bench.host import machine
 
     return figures | {"host": machine()}
 
@@ -132,7 +132,7 @@ def _existing(paths: list[Path]) -> None:
 
 
 def _sim(args) -> None:
-    from bench.sim_speed import bench_agreement, bench_sim, print_table
+    from stiction.bench.sim_speed import bench_agreement, bench_sim, print_table
 
     figures = _host(bench_sim(reference_loops=args.reference_loops, repeats=args.repeats))
     figures |= {"repeats": args.repeats, "reference_loops": args.reference_loops}
@@ -142,7 +142,7 @@ def _sim(args) -> None:
 
 
 def _sizing(args) -> None:
-    from bench.sizing import bench_sizing, print_table
+    from stiction.bench.sizing import bench_sizing, print_table
 
     if args.loops < 1 or args.workers < 1:
         raise InputError(f"--loops {args.loops} --workers {args.workers}: need at least 1 each")
@@ -150,7 +150,7 @@ def _sizing(args) -> None:
 
 
 def _detect(args) -> None:
-    from bench.detect import bench_detect, print_table
+    from stiction.bench.detect import bench_detect, print_table
 
     _existing(args.measured)
     if args.loops < 1:
@@ -159,7 +159,7 @@ def _detect(args) -> None:
 
 
 def _measured(args) -> None:
-    from bench.measured import bench_measured, markdown, print_summary
+    from stiction.bench.measured import bench_measured, markdown, print_summary
 
     _existing(args.folders)
     figures = _host(bench_measured(args.folders, args.workers))
@@ -169,8 +169,8 @@ def _measured(args) -> None:
 
 
 def _diagnose(args) -> None:
-    from bench import diagnose
-    from sim.grid import EFFECT_RANGES
+    from stiction.bench import diagnose
+    from stiction.sim.grid import EFFECT_RANGES
 
     causes = args.causes or list(EFFECT_RANGES)
     unknown = [c for c in causes if c not in EFFECT_RANGES]
@@ -191,7 +191,7 @@ def _diagnose(args) -> None:
 
 
 def _accuracy(args) -> None:
-    from bench.accuracy import bench_accuracy, print_table
+    from stiction.bench.accuracy import bench_accuracy, print_table
 
     figures = bench_accuracy(
         args.realisations,
@@ -204,8 +204,8 @@ def _accuracy(args) -> None:
 
 
 def _throughput(args) -> None:
-    from bench.throughput import run_throughput
-    from bench.throughput_report import find_limit, print_limit, print_step, print_table
+    from stiction.bench.throughput import run_throughput
+    from stiction.bench.throughput_report import find_limit, print_limit, print_step, print_table
 
     def run(loops: int) -> dict:
         return _host(
@@ -234,7 +234,7 @@ def _throughput(args) -> None:
 
 
 def _bridge(args) -> None:
-    from bench.bridge import print_table, run_bridge_bench
+    from stiction.bench.bridge import print_table, run_bridge_bench
 
     if args.loops < 1 or args.seconds <= 0:
         raise InputError("--loops and --seconds must be positive")

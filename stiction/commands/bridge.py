@@ -17,10 +17,10 @@ import sys
 import time
 from pathlib import Path
 
-from schemas import keys
-from schemas.errors import InputError
 from stiction import zenoh_config
 from stiction.commands.sim import DEFAULT_ENDPOINT, run_until_signal
+from stiction.schemas import keys
+from stiction.schemas.errors import InputError
 from stiction.status import Every, bridge_line
 
 log = logging.getLogger(__name__)
@@ -51,7 +51,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def settings_from(args: argparse.Namespace, loop_file):
-    from bridge.opcua import BridgeSettings
+    from stiction.bridge.opcua import BridgeSettings
 
     server = loop_file.server
     endpoint = args.endpoint or (server.endpoint if server else None)
@@ -104,8 +104,8 @@ class Status:
 def run(args: argparse.Namespace) -> int:
     import zenoh
 
-    from bridge.loopfile import load
-    from bridge.opcua import OpcuaBridge
+    from stiction.bridge.loopfile import load
+    from stiction.bridge.opcua import OpcuaBridge
 
     loop_file = load(args.loop_file)
     settings = settings_from(args, loop_file)

@@ -11,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from bridge import zenoh_session
-from schemas.errors import InputError
 from stiction import zenoh_config
+from stiction.bridge import zenoh_session
 from stiction.commands.agent import open_sink
 from stiction.commands.replay import publish as replay
 from stiction.commands.replay import read_tracks
 from stiction.commands.sim import stop_on_signals
+from stiction.schemas.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -55,7 +55,7 @@ def _no_numbers(r) -> str:
 
 
 def _table(reports, truths, rows: int, elapsed: float, published: int, loops: int) -> str:
-    from quantify.assembly import NOT_IDENTIFIED
+    from stiction.quantify.assembly import NOT_IDENTIFIED
 
     lines = [
         f"stiction demo  {elapsed:5.0f} s   {loops} loops   {published} s simulated per loop   "
@@ -162,7 +162,7 @@ def _measured(paths) -> tuple[list, dict[str, str | None]]:
     """Replay tracks of ``paths``, and each loop's label where a ``loops.json`` gives one."""
     if not paths:
         return [], {}
-    from bench.measured import labels as read_labels
+    from stiction.bench.measured import labels as read_labels
 
     tracks, failed = read_tracks(paths, None, None, "demo")
     if not tracks:
@@ -175,13 +175,13 @@ def _measured(paths) -> tuple[list, dict[str, str | None]]:
 
 def run(args: argparse.Namespace) -> int:
 
-    from agent.core import CoreSettings
-    from agent.service import AgentService, AgentSettings
-    from bridge.publish import SamplePublisher
-    from bridge.replay import Schedule
-    from sim.publisher import PublisherSettings
-    from sim.publisher import run as publish
+    from stiction.agent.core import CoreSettings
+    from stiction.agent.service import AgentService, AgentSettings
+    from stiction.bridge.publish import SamplePublisher
+    from stiction.bridge.replay import Schedule
     from stiction.dashboard import Dashboard
+    from stiction.sim.publisher import PublisherSettings
+    from stiction.sim.publisher import run as publish
 
     if args.loops < 1 or args.seconds <= 0 or args.speed <= 0:
         raise InputError("--loops, --seconds and --speed must be positive")

@@ -12,8 +12,8 @@ import argparse
 from functools import partial
 from pathlib import Path
 
-from schemas.errors import StictionError
 from stiction.commands import exports
+from stiction.schemas.errors import StictionError
 
 NONE_NAMED = "none: the canonical loop explains the data within its noise"
 
@@ -54,7 +54,7 @@ def _summary(path: str, r) -> str:
 
 
 def _params(cause: str) -> tuple[str, ...]:
-    from sim.extensions import CATALOGUE
+    from stiction.sim.extensions import CATALOGUE
 
     return CATALOGUE.get(cause, ())
 
@@ -66,7 +66,7 @@ def _plot(png: Path, record, d, report) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ident.report import MIN_SAMPLES, diagnose_loop
+    from stiction.ident.report import MIN_SAMPLES, diagnose_loop
 
     if args.max_causes < 0:
         raise StictionError(f"--max-causes {args.max_causes}: expected 0 or more")

@@ -8,7 +8,7 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-from schemas.errors import InputError, StictionError
+from stiction.schemas.errors import InputError, StictionError
 
 DEFAULT_WINDOW = 3600
 """Samples analysed per file by default: the last DEFAULT_WINDOW (``--last``/``--every`` to choose)."""
@@ -42,7 +42,7 @@ def windows(
 ) -> Iterator:
     """(path, Export) for every window of every file; a file's error is printed as one line naming
     it, appended to ``failed``, and the next file is read."""
-    from bridge.historian import expand_paths, read_export, read_windows
+    from stiction.bridge.historian import expand_paths, read_export, read_windows
 
     columns = {f: getattr(args, f"col_{f}") for f in fields if getattr(args, f"col_{f}")}
     for flag in ("last", "every"):

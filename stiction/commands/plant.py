@@ -10,8 +10,8 @@ import argparse
 import logging
 from pathlib import Path
 
-from schemas.errors import InputError
 from stiction.commands.sim import run_until_signal
+from stiction.schemas.errors import InputError
 from stiction.status import Every
 
 log = logging.getLogger(__name__)
@@ -33,8 +33,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bridge.loopfile import dumps
-    from sim.opcua_plant import PlantSettings, serve
+    from stiction.bridge.loopfile import dumps
+    from stiction.sim.opcua_plant import PlantSettings, serve
 
     if args.loops < 1 or args.speed <= 0:
         raise InputError("--loops and --speed must be positive")

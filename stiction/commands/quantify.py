@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from schemas.errors import StictionError
 from stiction.commands import exports
+from stiction.schemas.errors import StictionError
 
 FIELDS = ("op", "pv", "t", "sp", "mode")
 
@@ -86,7 +86,7 @@ def _summary(path: str, r) -> str:
 def _process_line(p) -> str:
     if p.source == "none":
         return "unknown (neither declared with --process nor identified)"
-    from sim.process import LOOPS
+    from stiction.sim.process import LOOPS
 
     how = "declared"
     if p.source == "identified" and p.description:
@@ -148,8 +148,8 @@ def quantified(
     ``details``: fit the INLPCA curve and keep the identified model's PV, for the plots.
     ``in_order=False``: within a chunk, the windows that wait for no sizing come first, so that
     their caller's work (drawing them) overlaps the sizings running on the workers."""
-    from quantify.pipeline import Quantifier, Window
-    from quantify.window import MIN_SAMPLES
+    from stiction.quantify.pipeline import Quantifier, Window
+    from stiction.quantify.window import MIN_SAMPLES
 
     if args.size_every < 0:
         raise StictionError(f"--size-every {args.size_every:g}: minutes, at least 0")
@@ -220,8 +220,8 @@ def _size(args, items: list[_Item], sized: dict, pool):
     """Start the sizings these windows need: a sticky window of unknown process, once in
     ``--size-every`` minutes of its file's data; the windows between share the last one.  On
     ``--jobs`` worker processes (started here when first needed); returns the pool."""
-    from quantify.assembly import needs_sizing
-    from quantify.identified import size_safely, sizing_pool
+    from stiction.quantify.assembly import needs_sizing
+    from stiction.quantify.identified import size_safely, sizing_pool
 
     for item in items:
         if args.no_identify or not needs_sizing(item.result.draft):
@@ -246,7 +246,7 @@ def _size(args, items: list[_Item], sized: dict, pool):
 def _finished(items: list[_Item], in_order: bool = True) -> Iterator[Quantified]:
     """The windows' reports with their sizings and the export's warnings: in order, or (``in_order``
     false) those without a sizing to wait for first."""
-    from quantify.assembly import assemble, with_model
+    from stiction.quantify.assembly import assemble, with_model
 
     if not in_order:
         items = sorted(items, key=lambda item: item.job is not None)  # stable: otherwise in order

@@ -14,11 +14,11 @@ import threading
 import time
 from pathlib import Path
 
-from schemas import keys
-from schemas.errors import InputError, StictionError
 from stiction import zenoh_config
 from stiction.commands.exports import report_error
 from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
+from stiction.schemas import keys
+from stiction.schemas.errors import InputError, StictionError
 
 FIELDS = ("op", "pv", "t", "sp", "mv", "mode")
 
@@ -36,9 +36,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
     """One track per readable export; each unreadable one named on one line (and returned)."""
-    from bridge.historian import expand_paths, read_export
-    from bridge.replay import loop_ids, track
-    from quantify.window import MIN_SAMPLES
+    from stiction.bridge.historian import expand_paths, read_export
+    from stiction.bridge.replay import loop_ids, track
+    from stiction.quantify.window import MIN_SAMPLES
 
     files = expand_paths(paths)
     tracks, failed = [], []
@@ -78,7 +78,7 @@ def publish(schedule, out, stop: threading.Event, rate_hz: float, status_every_s
 
 
 def run(args: argparse.Namespace) -> int:
-    from bridge.replay import Schedule
+    from stiction.bridge.replay import Schedule
 
     if args.speed <= 0 or args.rate <= 0:
         raise InputError("--speed and --rate must be positive")

@@ -17,8 +17,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from schemas.errors import InputError, StictionError
 from stiction.commands import exports, quantify
+from stiction.schemas.errors import InputError, StictionError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -82,16 +82,16 @@ def _from_exports(args: argparse.Namespace):
 
 
 def _default_prefix() -> str:
-    from schemas import keys
+    from stiction.schemas import keys
 
     return keys.DEFAULT_PREFIX
 
 
 def _from_stream(args: argparse.Namespace):
-    from bridge import zenoh_session
-    from schemas import keys
     from stiction import page
+    from stiction.bridge import zenoh_session
     from stiction.dashboard import latest_reports
+    from stiction.schemas import keys
 
     prefix = args.prefix or _default_prefix()
     try:

@@ -8,8 +8,8 @@ import signal
 import threading
 import time
 
-from schemas.errors import InputError
 from stiction import zenoh_config
+from stiction.schemas.errors import InputError
 from stiction.status import Every
 
 log = logging.getLogger(__name__)
@@ -50,8 +50,8 @@ def run_until_signal(work):
 
 def run(args: argparse.Namespace) -> int:
 
-    from sim.publisher import PublisherSettings
-    from sim.publisher import run as publish
+    from stiction.sim.publisher import PublisherSettings
+    from stiction.sim.publisher import run as publish
 
     if args.loops < 1 or args.rate <= 0 or args.speed <= 0:
         raise InputError("--loops, --rate and --speed must be positive")

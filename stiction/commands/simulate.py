@@ -9,7 +9,7 @@ import time
 from dataclasses import fields
 from pathlib import Path
 
-from schemas.errors import InputError
+from stiction.schemas.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +60,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _process(args):
     """A loop of its own from --process-gain, --process-tau-s, --kc and --ti-s (all four or none but tau)."""
-    from sim.process import ProcessModel
+    from stiction.sim.process import ProcessModel
 
     own = {"--process-gain": args.process_gain, "--kc": args.kc, "--ti-s": args.ti_s}
     if all(v is None for v in own.values()) and args.process_tau_s is None:
@@ -72,10 +72,10 @@ def _process(args):
 
 
 def _spec(args):
-    from sim.disturbance import Disturbance
-    from sim.extensions import Extensions
-    from sim.grid import case_specs
-    from sim.loop import LoopSpec
+    from stiction.sim.disturbance import Disturbance
+    from stiction.sim.extensions import Extensions
+    from stiction.sim.grid import case_specs
+    from stiction.sim.loop import LoopSpec
 
     try:
         if args.case:
@@ -106,9 +106,9 @@ def _spec(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    from sim import export
-    from sim.grid import training_specs
-    from sim.loop import simulate
+    from stiction.sim import export
+    from stiction.sim.grid import training_specs
+    from stiction.sim.loop import simulate
 
     if args.warmup_s >= args.duration_s:
         raise InputError(f"--warmup-s {args.warmup_s} must be below --duration-s {args.duration_s}")

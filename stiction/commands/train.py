@@ -12,7 +12,7 @@ import time
 from dataclasses import fields
 from pathlib import Path
 
-from schemas.errors import InputError, StictionError
+from stiction.schemas.errors import InputError, StictionError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -45,7 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def parse_extensions(items: list[str]) -> dict[str, float]:
     """``NAME=VALUE`` pairs as the simulator's extensions, checked against its catalogue."""
-    from sim.extensions import Extensions
+    from stiction.sim.extensions import Extensions
 
     known = {f.name for f in fields(Extensions)}
     out: dict[str, float] = {}
@@ -78,10 +78,10 @@ def train_detector(args: argparse.Namespace) -> int:
     """The detector alone: numpy and scipy, a few seconds."""
     import numpy as np
 
-    from bench.measured import labelled_exports
-    from detect import training
-    from detect.features import evidence
-    from quantify.predictor import DEFAULT_MODELS_DIR
+    from stiction.bench.measured import labelled_exports
+    from stiction.detect import training
+    from stiction.detect.features import evidence
+    from stiction.quantify.predictor import DEFAULT_MODELS_DIR
 
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
     n_per_cause = training.N_PER_CAUSE
@@ -117,8 +117,8 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, name) < 1:
             raise StictionError(f"--{name} must be at least 1")
     try:
-        from trainer.train import DEFAULT_MODELS_DIR, TrainSettings
-        from trainer.train import run as train
+        from stiction.trainer.train import DEFAULT_MODELS_DIR, TrainSettings
+        from stiction.trainer.train import run as train
     except ImportError as e:
         raise StictionError(f"training needs the train extra ({e.name} missing): pip install -e '.[train]'") from None
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)

@@ -4,8 +4,7 @@ import json
 
 import numpy as np
 import pytest
-
-from agent.core import AgentCore, CoreSettings
+from stiction.agent.core import AgentCore, CoreSettings
 
 KEY = "stiction/demo/loop/L1/samples"
 JSON = "application/json"
@@ -186,7 +185,7 @@ def test_the_due_window_carries_the_streamed_setpoint():
 
 
 def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports():
-    from quantify.window import Reading
+    from stiction.quantify.window import Reading
 
     core = _core(estimate_every=3)
     seq = 0
@@ -221,7 +220,7 @@ def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports()
 
 
 def test_fresh_readings_are_rationed_while_the_agent_is_behind_never_read_ones_first():
-    from quantify.window import Reading
+    from stiction.quantify.window import Reading
 
     core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=100, stagger=False,
                                         estimate_every=4, reading_lag_s=0.5))  # fmt: skip
@@ -296,15 +295,15 @@ def test_a_replica_taking_over_late_does_not_report_a_window_the_dead_owner_had_
 
 def _reference_owner(agents, shard):
     """Plain rendezvous hashing, no cap: the agent ranking first for the shard."""
-    from agent.ownership import rank
+    from stiction.agent.ownership import rank
 
     return max(agents, key=lambda a: rank(a, f"shard/{shard}"))
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 5, 32])
 def test_shards_are_given_out_evenly_and_every_agent_computes_the_same(n):
-    from agent.ownership import assign
-    from schemas import keys
+    from stiction.agent.ownership import assign
+    from stiction.schemas import keys
 
     agents = tuple(f"agent-{i}" for i in range(n))
     owners = assign(agents)
@@ -323,8 +322,8 @@ def test_shards_are_given_out_evenly_and_every_agent_computes_the_same(n):
 
 
 def test_the_heir_of_a_shard_owns_it_once_its_owner_is_gone():
-    from agent.ownership import assign
-    from schemas import keys
+    from stiction.agent.ownership import assign
+    from stiction.schemas import keys
 
     agents = ("a", "b", "c")
     cores = {x: AgentCore(x) for x in agents}
@@ -339,7 +338,7 @@ def test_the_heir_of_a_shard_owns_it_once_its_owner_is_gone():
 
 
 def _sharded_key(loop_id):
-    from schemas import keys
+    from stiction.schemas import keys
 
     return keys.sharded_samples("stiction/demo", loop_id)
 
@@ -373,7 +372,7 @@ def test_a_history_that_does_not_reach_the_live_window_is_refused_and_the_window
 
 
 def test_a_sharded_loop_is_held_by_its_owner_only_and_dropped_when_its_shard_moves():
-    from schemas import keys
+    from stiction.schemas import keys
 
     loops = [f"L{i}" for i in range(60)]
     a = AgentCore("a", CoreSettings(window_samples=100, report_every_samples=20))

@@ -2,11 +2,11 @@
 
 import math
 
-from agent.sizing_plan import NOTE, SizingPlan
-from ident.sizing import Sizing
-from quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble
-from schemas.diagnosis import Process
-from schemas.report import Estimate, ProcessInfo, StictionReport
+from stiction.agent.sizing_plan import NOTE, SizingPlan
+from stiction.ident.sizing import Sizing
+from stiction.quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble
+from stiction.schemas.diagnosis import Process
+from stiction.schemas.report import Estimate, ProcessInfo, StictionReport
 
 PROCESS = Process(kind="self_regulating", gain=0.8, gain_se=0.05, time_constant_s=12.0, dead_time_s=2.0,
                   sensor_tau_s=0.0, actuator_tau_s=0.0, sample_time_s=1.0,

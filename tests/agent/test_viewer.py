@@ -6,10 +6,10 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from agent.viewer import ENTITIES, RerunSink, blueprint, path  # noqa: E402
-from quantify.pipeline import Window  # noqa: E402
-from sim.grid import case_specs  # noqa: E402
-from sim.loop import simulate  # noqa: E402
+from stiction.agent.viewer import ENTITIES, RerunSink, blueprint, path  # noqa: E402
+from stiction.quantify.pipeline import Window  # noqa: E402
+from stiction.sim.grid import case_specs  # noqa: E402
+from stiction.sim.loop import simulate  # noqa: E402
 
 
 def _record(file, quantifier, reports_per_loop=3, window=300, step=100, **sink_kw):
@@ -90,7 +90,7 @@ def test_bad_mode_is_refused():
 
 @pytest.fixture(scope="module")
 def quantifier_fixture():
-    from quantify.pipeline import Quantifier
+    from stiction.quantify.pipeline import Quantifier
 
     return Quantifier()
 

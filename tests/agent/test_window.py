@@ -1,8 +1,7 @@
 """The rolling window against a batch computation of the same tail, without broker or sleeps."""
 
 import numpy as np
-
-from agent.window import RollingWindow
+from stiction.agent.window import RollingWindow
 
 
 def test_window_is_always_the_tail_of_the_stream():

@@ -4,10 +4,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from bridge import historian
-from bridge.historian import read_export
-from schemas.errors import InputError
+from stiction.bridge import historian
+from stiction.bridge.historian import read_export
+from stiction.schemas.errors import InputError
 
 PLANT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "stictiongpt_plant" / "csv"
 

@@ -3,10 +3,9 @@
 import json
 
 import numpy as np
-
-from bridge.history import SampleHistory
-from schemas import keys
-from schemas.messages import SampleBatch
+from stiction.bridge.history import SampleHistory
+from stiction.schemas import keys
+from stiction.schemas.messages import SampleBatch
 
 P = "plant/a"
 

@@ -1,9 +1,8 @@
 """Loop files: TOML and YAML read the same; every mistake is one line naming the file and the field."""
 
 import pytest
-
-from bridge.loopfile import dumps, load, parse
-from schemas.errors import InputError
+from stiction.bridge.loopfile import dumps, load, parse
+from stiction.schemas.errors import InputError
 
 GOOD = """
 sample_time_s = 0.5

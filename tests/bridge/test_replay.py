@@ -1,9 +1,8 @@
 """Replay: exports become streams that carry every sample once, in order, at the asked speed."""
 
 import numpy as np
-
-from bridge.replay import Schedule, Track, loop_ids
-from schemas.messages import SampleBatch
+from stiction.bridge.replay import Schedule, Track, loop_ids
+from stiction.schemas.messages import SampleBatch
 
 
 def _track(loop_id, n, ts, t0=0.0):

@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
-
-from bridge.sampler import Reading, Sampler
-from schemas.loop_file import LoopNodes
-from schemas.messages import SampleBatch
+from stiction.bridge.sampler import Reading, Sampler
+from stiction.schemas.loop_file import LoopNodes
+from stiction.schemas.messages import SampleBatch
 
 NODES = LoopNodes(op="ns=2;s=A.OP", pv="ns=2;s=A.PV", sp="ns=2;s=A.SP")
 

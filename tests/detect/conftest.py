@@ -16,8 +16,8 @@ def plant_dir() -> Path:
 @pytest.fixture
 def measured_evidence(plant_dir):
     """``of(pattern)``: the evidence of each measured window whose file name matches ``pattern``."""
-    from bridge.historian import read_export
-    from detect.features import evidence
+    from stiction.bridge.historian import read_export
+    from stiction.detect.features import evidence
 
     def of(pattern: str) -> list:
         return [evidence(e.op, e.pv, e.ts_s, e.sp) for e in map(read_export, sorted(plant_dir.glob(pattern)))]

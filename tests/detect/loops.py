@@ -1,9 +1,9 @@
 """Simulated loops the detector's tests hide an effect in."""
 
-from sim.extensions import Extensions
-from sim.loop import LoopSpec
-from sim.plant_loops import PlantLoop, simulate_plant
-from sim.process import ProcessModel
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec
+from stiction.sim.plant_loops import PlantLoop, simulate_plant
+from stiction.sim.process import ProcessModel
 
 
 def slow_flow_loop(fs_pct: float, seed: int, *, fd_share: float = 0.7, controller_gain: float = 0.5,

@@ -1,9 +1,8 @@
 """Plain per-half-cycle loops: the references the vectorised detect code is checked against."""
 
 import numpy as np
-
-from detect.oscillation import detrend, half_cycles
-from detect.shape import APEXES
+from stiction.detect.oscillation import detrend, half_cycles
+from stiction.detect.shape import APEXES
 
 
 def amplitude(y, crossings):

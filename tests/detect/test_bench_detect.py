@@ -1,7 +1,7 @@
 """``stiction bench detect`` end to end on a small set: every figure it prints is there and is a share."""
 
-from bench.detect import METHODS, bench_detect, print_table
-from sim.plant_families import FAMILIES
+from stiction.bench.detect import METHODS, bench_detect, print_table
+from stiction.sim.plant_families import FAMILIES
 
 
 def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_published_tests(capsys, plant_dir):

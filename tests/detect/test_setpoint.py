@@ -4,11 +4,10 @@ setpoint step is found; a valve that moves, with or without a deadband smaller t
 
 import numpy as np
 import pytest
-
-from detect.features import evidence
-from detect.training import DETECTOR_FILE
-from detect.verdict import STEP_AT, STICTION_AT, Detector, decide
-from quantify.predictor import DEFAULT_MODELS_DIR
+from stiction.detect.features import evidence
+from stiction.detect.training import DETECTOR_FILE
+from stiction.detect.verdict import STEP_AT, STICTION_AT, Detector, decide
+from stiction.quantify.predictor import DEFAULT_MODELS_DIR
 
 STEPS = ((0.3, 2.0), (0.65, -2.0))
 """The operator raises the setpoint by 2 % of span a third into the window and lowers it again later."""
@@ -71,7 +70,7 @@ def test_measured_the_sticky_flow_valve_sticks_through_setpoint_steps_its_health
 
 
 def test_the_stuck_steps_travel_bounds_the_band_where_the_setpoint_is_known():
-    from detect.features import stuck_travel
+    from stiction.detect.features import stuck_travel
 
     for seed in range(3):
         op, pv, sp, ts_s = _flow_loop(6.0, seed, 0.5)

@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-
-from detect import bicoherence, horch, oscillation, shape
+from stiction.detect import bicoherence, horch, oscillation, shape
 
 
 def _triangle(t, period):
@@ -70,8 +69,9 @@ def test_ellipse_band_is_the_plot_width_at_mean_pv():
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed):
-    from detect.oscillation import _amplitude, detrend, half_cycles
-    from detect.shape import stiction_index
+    from stiction.detect.oscillation import _amplitude, detrend, half_cycles
+    from stiction.detect.shape import stiction_index
+
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -89,8 +89,9 @@ def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed)
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
-    from detect.bicoherence import squared_bicoherence
-    from detect.oscillation import _crossings, detrend
+    from stiction.detect.bicoherence import squared_bicoherence
+    from stiction.detect.oscillation import _crossings, detrend
+
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -110,8 +111,9 @@ def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_stick_slip_shares_equal_the_plain_loops(seed):
-    from detect import kernels
-    from detect.features import EDGE_MEDIAN, TOP_SHARE, _edges
+    from stiction.detect import kernels
+    from stiction.detect.features import EDGE_MEDIAN, TOP_SHARE, _edges
+
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -129,8 +131,9 @@ def test_compiled_stick_slip_shares_equal_the_plain_loops(seed):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_stuck_ramp_equals_the_plain_loop(seed):
-    from detect import kernels
-    from detect.features import _edges
+    from stiction.detect import kernels
+    from stiction.detect.features import _edges
+
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)

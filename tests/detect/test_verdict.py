@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
-
-from detect.features import evidence
-from detect.training import DETECTOR_FILE, SIM_SEED
-from detect.verdict import STICTION_AT, Detector, decide, fit_logistic
-from quantify.predictor import DEFAULT_MODELS_DIR
-from sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
+from stiction.detect.features import evidence
+from stiction.detect.training import DETECTOR_FILE, SIM_SEED
+from stiction.detect.verdict import STICTION_AT, Detector, decide, fit_logistic
+from stiction.quantify.predictor import DEFAULT_MODELS_DIR
+from stiction.sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +86,7 @@ def _slow_loop(fs_pct: float, load_pct: float, seed: int):
 
 
 def test_a_valve_stuck_while_op_ramps_is_found_and_a_slow_load_followed_by_op_is_not(detector):
-    from detect.verdict import STUCK_AT
+    from stiction.detect.verdict import STUCK_AT
 
     assert detector.stuck is not None and detector.stuck.probability >= STICTION_AT  # the test can call it alone
     for seed in range(4):
@@ -106,7 +105,7 @@ def test_a_valve_stuck_while_op_ramps_is_found_and_a_slow_load_followed_by_op_is
 def test_the_stuck_valve_test_raises_the_probability_where_it_speaks_and_nowhere_else(detector):
     from dataclasses import replace
 
-    from detect.verdict import StuckRule
+    from stiction.detect.verdict import StuckRule
 
     x = np.array([evidence(*_slow_loop(3.6, 0.0, s)[:2]).vector for s in range(3)])
     plain = replace(detector, stuck=None, step=None).stiction_probability(x)
@@ -120,7 +119,7 @@ def test_the_stuck_valve_test_raises_the_probability_where_it_speaks_and_nowhere
 
 
 def test_measured_a_valve_that_sticks_between_setpoint_moves_shows_stuck_ramps_a_level_cycle_none(measured_evidence):
-    from detect.verdict import STUCK_AT
+    from stiction.detect.verdict import STUCK_AT
 
     stuck = [ev.stuck_ramp for ev in measured_evidence("stic_2411FIC20102_10*.csv")]
     cycling = [ev.stuck_ramp for ev in measured_evidence("stic_2111LIC31102B_*.csv")]
@@ -142,7 +141,7 @@ def test_a_detector_file_without_the_stuck_valve_test_still_loads(tmp_path, dete
 def test_a_probability_short_of_the_verdict_is_said_to_lean_not_called_healthy(detector):
     from dataclasses import replace
 
-    from detect.verdict import LEANS_AT
+    from stiction.detect.verdict import LEANS_AT
 
     op, pv, sp, ts_s = _slow_loop(0.0, 1.0, 0)
     ev = evidence(op, pv, ts_s, sp)

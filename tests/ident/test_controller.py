@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
-
-from ident.controller import MIN_EXPLAINED, fit_pi, matches
-from sim.grid import case_specs, random_loops
-from sim.loop import simulate
-from sim.plant_loops import plant_loops, simulate_plant, stable
-from sim.process import LOOPS
+from stiction.ident.controller import MIN_EXPLAINED, fit_pi, matches
+from stiction.sim.grid import case_specs, random_loops
+from stiction.sim.loop import simulate
+from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
+from stiction.sim.process import LOOPS
 
 
 def _plant(n_per_class, seed):

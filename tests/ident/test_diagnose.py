@@ -6,15 +6,14 @@ code under test is not given; diagnose sees OP and PV only.  Seeds are fixed.
 
 import numpy as np
 import pytest
-
-from ident.diagnose import diagnose
-from ident.models import cause_parameters
-from ident.record import Record
-from sim.actuator import actuate
-from sim.disturbance import Disturbance
-from sim.extensions import Extensions
-from sim.loop import LoopSpec, simulate
-from sim.valve import VALVE, Friction, pct_to_lbf
+from stiction.ident.diagnose import diagnose
+from stiction.ident.models import cause_parameters
+from stiction.ident.record import Record
+from stiction.sim.actuator import actuate
+from stiction.sim.disturbance import Disturbance
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.sim.valve import VALVE, Friction, pct_to_lbf
 
 HIDDEN = {
     "dead_time": (Extensions(dead_time_s=2.7), 41.0, 14.0),

@@ -2,17 +2,17 @@
 
 import numpy as np
 import pytest
+from stiction.ident import fit as F  # noqa: N812
+from stiction.ident import valve_model as M  # noqa: N812
+from stiction.ident.friction import friction
+from stiction.ident.process import Dynamics, transfer_function
+from stiction.ident.record import Record
+from stiction.ident.stem import read_paths
+from stiction.sim.disturbance import Disturbance
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.sim.process import LOOPS, continuous_plant, discretise
 
-from ident import fit as F  # noqa: N812
-from ident import valve_model as M  # noqa: N812
-from ident.friction import friction
-from ident.process import Dynamics, transfer_function
-from ident.record import Record
-from ident.stem import read_paths
-from sim.disturbance import Disturbance
-from sim.extensions import Extensions
-from sim.loop import LoopSpec, simulate
-from sim.process import LOOPS, continuous_plant, discretise
 from tests.ident.walk_reference import walk_by_sample
 
 

@@ -4,8 +4,7 @@ from itertools import combinations
 
 import numpy as np
 import pytest
-
-from ident.segment import noise_variance, segment_ends
+from stiction.ident.segment import noise_variance, segment_ends
 
 
 def _exhaustive(f, penalty):

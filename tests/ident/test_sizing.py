@@ -4,11 +4,10 @@ import math
 from types import SimpleNamespace
 
 import pytest
-
-from ident.friction import Friction
-from ident.sizing import from_report, size
-from ident.trust import MODEL_ERROR_J, MODEL_ERROR_S, with_model_error
-from sim.plant_loops import plant_loops, simulate_plant, stable
+from stiction.ident.friction import Friction
+from stiction.ident.sizing import from_report, size
+from stiction.ident.trust import MODEL_ERROR_J, MODEL_ERROR_S, with_model_error
+from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
 
 def _report(**kw):
@@ -85,7 +84,7 @@ def test_a_plant_like_loops_band_is_found_under_its_identified_process(sticky_pl
      (float("nan"), float("nan"), 5.0, True)],
 )
 def test_a_band_below_half_the_stuck_op_travel_is_contradicted(s_pct, s_se_pct, travel_pct, kept):
-    from ident.trust import stuck_travel_contradicts
+    from stiction.ident.trust import stuck_travel_contradicts
 
     why = stuck_travel_contradicts(s_pct, s_se_pct, travel_pct)
     assert (why is None) == kept

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-
-from ident.fit import _as_slips, _breaks
-from ident.valve_model import Drive, Slips
+from stiction.ident.fit import _as_slips, _breaks
+from stiction.ident.valve_model import Drive, Slips
 
 
 def walk_by_sample(

@@ -4,8 +4,7 @@ import threading
 import time
 
 import pytest
-
-from quantify.pipeline import Quantifier
+from stiction.quantify.pipeline import Quantifier
 
 
 def wait_until(condition, timeout_s: float = 30.0, what: str = "condition") -> None:

@@ -7,17 +7,17 @@ import threading
 import numpy as np
 import pytest
 import zenoh
+from stiction.agent.core import CoreSettings
+from stiction.agent.service import AgentService, AgentSettings
+from stiction.bridge import zenoh_session
+from stiction.bridge.publish import encode
+from stiction.quantify.pipeline import Window
+from stiction.schemas import keys
+from stiction.schemas.report import StictionReport
+from stiction.sim.grid import case_specs
+from stiction.sim.publisher import batch
+from stiction.sim.stream import LoopStream
 
-from agent.core import CoreSettings
-from agent.service import AgentService, AgentSettings
-from bridge import zenoh_session
-from bridge.publish import encode
-from quantify.pipeline import Window
-from schemas import keys
-from schemas.report import StictionReport
-from sim.grid import case_specs
-from sim.publisher import batch
-from sim.stream import LoopStream
 from tests.integration.conftest import wait_until
 
 PREFIX = "test/bad"

@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from bridge import zenoh_session
+from stiction.bridge import zenoh_session
 
 ROOT = Path(__file__).resolve().parents[2]
 PLAYWRIGHT = ROOT / "build" / "browser" / "node_modules" / "playwright-core"
@@ -29,10 +28,10 @@ def _port() -> int:
 )
 def test_served_web_viewer_shows_the_op_pv_loops(quantifier):
     pytest.importorskip("rerun")
-    from agent.viewer import RerunSink
-    from quantify.pipeline import Window
-    from sim.grid import case_specs
-    from sim.loop import simulate
+    from stiction.agent.viewer import RerunSink
+    from stiction.quantify.pipeline import Window
+    from stiction.sim.grid import case_specs
+    from stiction.sim.loop import simulate
 
     names = ["C2", "C4", "N4", "C9"]
     specs = case_specs(seed=2)

@@ -1,9 +1,8 @@
 import numpy as np
 import pytest
-
-from quantify.acf import acf_period, autocorrelation
-from sim.grid import case_specs
-from sim.loop import simulate
+from stiction.quantify.acf import acf_period, autocorrelation
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import simulate
 
 
 def _direct_acf(y, max_lag):

@@ -2,15 +2,14 @@
 warning is added where its fact is known (no sizing, a failed one, a read one), never taken back."""
 
 import pytest
-
-from ident.sizing import Sizing
-from quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble, needs_sizing
-from quantify.identified import quantify_sized
-from quantify.pipeline import Quantifier, Window
-from schemas.diagnosis import Process
-from sim.grid import case_specs
-from sim.loop import simulate
-from sim.plant_loops import plant_loops, simulate_plant, stable
+from stiction.ident.sizing import Sizing
+from stiction.quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble, needs_sizing
+from stiction.quantify.identified import quantify_sized
+from stiction.quantify.pipeline import Quantifier, Window
+from stiction.schemas.diagnosis import Process
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import simulate
+from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
 PROCESS = Process(kind="self_regulating", gain=0.8, gain_se=0.05, time_constant_s=12.0, dead_time_s=2.0,
                   sensor_tau_s=0.0, actuator_tau_s=0.0, sample_time_s=1.0,

@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from quantify import inlpca
+from stiction.quantify import inlpca
 
 
 def test_analytic_gradients_match_finite_differences():
@@ -63,7 +62,7 @@ def test_angles_advance_with_time_in_one_direction():
 
 
 def test_blocked_projection_finds_the_nearest_curve_point_as_a_brute_force_search_does():
-    from quantify.inlpca import _nearest
+    from stiction.quantify.inlpca import _nearest
 
     rng = np.random.default_rng(2)
     x, curve = rng.normal(size=(23, 300, 2)), rng.normal(size=(23, 64, 2))  # not a multiple of the block

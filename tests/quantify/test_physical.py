@@ -2,11 +2,10 @@
 
 import numpy as np
 import pytest
-
-from quantify import physical
-from sim.disturbance import Disturbance
-from sim.grid import case_specs
-from sim.loop import LoopSpec, simulate
+from stiction.quantify import physical
+from stiction.sim.disturbance import Disturbance
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import LoopSpec, simulate
 
 
 def test_mv_follows_from_pv_for_the_level_loop():
@@ -36,7 +35,7 @@ def test_segmented_reading_sees_through_white_input_noise():
 
 @pytest.mark.parametrize("coefficient", [0.1, 0.2])
 def test_segmented_reading_abstains_or_is_right_under_white_output_noise(coefficient):
-    from quantify.policy import SEGMENTED_MAX_SE_PCT
+    from stiction.quantify.policy import SEGMENTED_MAX_SE_PCT
 
     specs, r = _white_noise_loops("output", coefficient)
     seg = physical.read_segmented(r.op, r.pv)

@@ -5,14 +5,13 @@ import sys
 
 import numpy as np
 import pytest
-
-from detect.verdict import LEANS_AT
-from quantify.identified import quantify_sized
-from quantify.pipeline import Quantifier, Window
-from schemas.errors import InputError
-from schemas.report import StictionReport
-from sim.grid import case_specs
-from sim.loop import LoopSpec, simulate
+from stiction.detect.verdict import LEANS_AT
+from stiction.quantify.identified import quantify_sized
+from stiction.quantify.pipeline import Quantifier, Window
+from stiction.schemas.errors import InputError
+from stiction.schemas.report import StictionReport
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import LoopSpec, simulate
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +78,7 @@ def test_without_flags_the_thesis_loop_is_identified_and_read_as_if_declared(qua
 
 
 def test_a_loop_with_another_controller_is_not_taken_for_the_thesis_loop(quantifier):
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(8, 31) if loop.every == 1]
     windows = [
@@ -130,9 +129,12 @@ def test_bad_windows_are_refused_with_the_reason(quantifier, window, message):
     ("modules", "forbidden"),
     [
         # the pipeline: no torch, no network, no viewer, no control-systems toolbox
-        ("quantify.pipeline, quantify.analysis, bridge.historian", ("torch", "zenoh", "rerun", "control")),
-        # the agent's core names its types without the models, onnxruntime or the simulator
-        ("agent.core", ("onnxruntime", "sim", "stiction", "scipy", "zenoh", "torch")),
+        (
+            "stiction.quantify.pipeline, stiction.quantify.analysis, stiction.bridge.historian",
+            ("torch", "zenoh", "rerun", "control"),
+        ),
+        # the agent's core names its types without the models, onnxruntime, the simulator or the command line
+        ("stiction.agent.core", ("onnxruntime", "stiction.sim", "stiction.cli", "scipy", "zenoh", "torch")),
     ],
 )
 def test_what_the_agents_modules_import(modules, forbidden):
@@ -222,7 +224,7 @@ def test_a_window_still_called_sticky_carries_the_reading_it_is_given_and_only_t
 
 
 def test_a_deferred_reading_reports_the_verdict_and_says_the_numbers_come_later(quantifier, cases):
-    from quantify.pipeline import DEFERRED_WARNING
+    from stiction.quantify.pipeline import DEFERRED_WARNING
 
     specs, r = cases
     rng = np.random.default_rng(6)
@@ -236,8 +238,8 @@ def test_a_deferred_reading_reports_the_verdict_and_says_the_numbers_come_later(
 
 
 def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers(quantifier):
-    from quantify.assembly import NOT_READ_WARNING
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.quantify.assembly import NOT_READ_WARNING
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(30, 2027) if loop.cause == "stiction"]
     windows = [
@@ -256,8 +258,8 @@ def test_a_sticky_loop_of_unknown_process_gets_a_verdict_but_no_headline_numbers
 
 
 def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_process(quantifier, cases):
-    from quantify.assembly import NOT_READ_WARNING
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.quantify.assembly import NOT_READ_WARNING
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
     kept = [(loop, r) for loop, r in zip(loops, simulate_plant(loops), strict=True) if stable(r[0], r[1])]
@@ -284,7 +286,7 @@ def test_with_identification_a_sticky_plant_like_loop_is_sized_under_its_own_pro
 
 
 def test_the_identified_models_pv_comes_with_the_details_and_follows_the_measured_pv(quantifier):
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
     windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in
@@ -303,13 +305,13 @@ def test_the_identified_models_pv_comes_with_the_details_and_follows_the_measure
 
 
 def test_an_identification_that_breaks_costs_that_loop_its_numbers_only(quantifier, monkeypatch):
-    import ident.sizing
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.ident import sizing
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     def broken(*args, **kwargs):
         raise IndexError("index 7 is out of bounds")
 
-    monkeypatch.setattr(ident.sizing, "size", broken)
+    monkeypatch.setattr(sizing, "size", broken)
     loops = [loop for loop in plant_loops(8, 2027) if loop.cause == "stiction"]
     windows = [Window(f"s{i}", op, pv, ts_s=ts_s, sp=sp) for i, (op, pv, sp, ts_s) in
                enumerate(simulate_plant(loops)) if stable(op, pv)]  # fmt: skip
@@ -326,7 +328,7 @@ def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantif
     slipped: the identified model (its PV missing the record) once read S 0.03 +- 0.01 %."""
     from pathlib import Path
 
-    from bridge.historian import read_export
+    from stiction.bridge.historian import read_export
 
     plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
     files = sorted(plant.glob("stic_2_CDU.7040-311_FIC31102_*.csv"))
@@ -343,8 +345,9 @@ def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantif
 def test_every_method_reads_the_band_a_travel_test_measures(quantifier):
     """S as a valve travel test measures it on the record (OP's travel after a reversal before the stem
     moves): the physical, learned and identified readings agree with it within their standard errors."""
-    from ident.sizing import size
-    from sim.valve import band_and_jump_pct, band_and_jump_se_pct
+    from stiction.ident.sizing import size
+    from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct
+
     from tests.sim.test_valve import _reversal_travels_pct
 
     specs = [LoopSpec(40.0, 15.0, seed=3), LoopSpec(70.0, 50.0, seed=4), LoopSpec(25.0, 5.0, seed=5)]
@@ -368,8 +371,8 @@ def test_every_method_reads_the_band_a_travel_test_measures(quantifier):
 def test_backlash_is_a_valve_fault_and_the_report_tells_deadband_from_stick_slip(quantifier):
     """A valve with backlash and no slip is stiction in the two-parameter sense (S > 0, J = 0); a slip
     on top of it is read as the same band plus the slip's (Choudhury: S = deadband + stickband)."""
-    from sim.extensions import Extensions
-    from sim.valve import band_and_jump_pct
+    from stiction.sim.extensions import Extensions
+    from stiction.sim.valve import band_and_jump_pct
 
     specs = [LoopSpec(0.0, 0.0, seed=1, extensions=Extensions(deadband_pct=5.0)),
              LoopSpec(1.0, 0.5, seed=1, extensions=Extensions(deadband_pct=5.0))]  # fmt: skip

@@ -4,8 +4,7 @@ import json
 import shutil
 
 import pytest
-
-from quantify.predictor import DEFAULT_MODELS_DIR, ModelError, Predictor
+from stiction.quantify.predictor import DEFAULT_MODELS_DIR, ModelError, Predictor
 
 
 @pytest.fixture

@@ -2,10 +2,9 @@ import json
 
 import pytest
 from pydantic import ValidationError
-
-from schemas import keys
-from schemas.export import JSON_DIR, schemas
-from schemas.messages import MAX_BATCH_SAMPLES, SampleBatch
+from stiction.schemas import keys
+from stiction.schemas.export import JSON_DIR, schemas
+from stiction.schemas.messages import MAX_BATCH_SAMPLES, SampleBatch
 
 
 def test_exported_json_schemas_are_current():

@@ -2,11 +2,10 @@
 
 import numpy as np
 import pytest
-
-from sim.extensions import CATALOGUE, Extensions, backlash
-from sim.loop import LoopSpec, simulate
-from sim.process import LOOPS, continuous_plant, discretise
-from sim.valve import Friction, lagged_valve_step, pct_to_lbf
+from stiction.sim.extensions import CATALOGUE, Extensions, backlash
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.sim.process import LOOPS, continuous_plant, discretise
+from stiction.sim.valve import Friction, lagged_valve_step, pct_to_lbf
 
 
 def _plant_response(ext: Extensions, flow: np.ndarray, loop="level") -> np.ndarray:

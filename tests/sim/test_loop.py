@@ -4,11 +4,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
-from sim.disturbance import Disturbance, kasdin_ar_coefficients, rms, unit_shape
-from sim.grid import NOISY_CASES, case_specs, training_grid_lbf, training_specs
-from sim.loop import LoopSpec, disturbance_signals, simulate
-from sim.valve import VALVE, pct_to_lbf
+from stiction.sim.disturbance import Disturbance, kasdin_ar_coefficients, rms, unit_shape
+from stiction.sim.grid import NOISY_CASES, case_specs, training_grid_lbf, training_specs
+from stiction.sim.loop import LoopSpec, disturbance_signals, simulate
+from stiction.sim.valve import VALVE, pct_to_lbf
 
 
 @pytest.fixture(scope="module")

@@ -1,9 +1,8 @@
 """The plant-like loops' labels say what their simulated valves do."""
 
 import numpy as np
-
-from sim.loop import build_batch, run_batch
-from sim.plant_loops import plant_loops
+from stiction.sim.loop import build_batch, run_batch
+from stiction.sim.plant_loops import plant_loops
 
 
 def test_a_sticky_plant_loops_band_is_the_gap_its_stem_breaks_at():

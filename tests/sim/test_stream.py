@@ -1,11 +1,10 @@
 """The streamed loops are the batch simulator's, sample for sample, over its 2000 s."""
 
 import numpy as np
-
-from sim.extensions import Extensions
-from sim.grid import case_specs
-from sim.loop import LoopSpec, simulate
-from sim.stream import LoopStream
+from stiction.sim.extensions import Extensions
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.sim.stream import LoopStream
 
 
 def test_stream_equals_simulate_chunk_by_chunk():

@@ -1,10 +1,9 @@
 """Valve physics: stuck stems, sticking, slips, He's model, actuator lag."""
 
 import numpy as np
-
-from sim.loop import LoopSpec, simulate
-from sim.reference import IN_PER_PCT, RefState, reference_interval
-from sim.valve import (
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.sim.reference import IN_PER_PCT, RefState, reference_interval
+from stiction.sim.valve import (
     VALVE,
     Friction,
     band_and_jump_pct,

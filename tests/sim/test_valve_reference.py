@@ -7,10 +7,9 @@ the same OP and disturbance; the stem positions must agree within 0.05 % of span
 
 import numpy as np
 import pytest
-
-from bench.sim_speed import interval_agreement
-from sim.grid import case_specs
-from sim.loop import LoopState, advance, build_batch, run_batch
+from stiction.bench.sim_speed import interval_agreement
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import LoopState, advance, build_batch, run_batch
 
 MV_TOLERANCE_PCT = 0.05
 INTERVALS = 220  # > one period of the slowest case (C3, ~160 s): every case slips several times

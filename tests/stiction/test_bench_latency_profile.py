@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-
-from bench.throughput import _p99_by_bucket
+from stiction.bench.throughput import _p99_by_bucket
 
 
 def test_p99_per_bucket_of_stream_with_empty_buckets_shown_as_none():

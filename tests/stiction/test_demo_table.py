@@ -1,11 +1,11 @@
 """The demo's table says why a loop has no friction numbers, not only that it has none."""
 
 import numpy as np
+from stiction.quantify.pipeline import Quantifier, Window
+from stiction.schemas.messages import LoopTruth
+from stiction.sim.grid import case_specs
+from stiction.sim.loop import simulate
 
-from quantify.pipeline import Quantifier, Window
-from schemas.messages import LoopTruth
-from sim.grid import case_specs
-from sim.loop import simulate
 from stiction.commands.demo import _table
 
 

@@ -61,8 +61,7 @@ def test_plot_writes_one_png_per_loop_that_is_not_blank(loops, tmp_path, capsys)
 
 def test_rank_puts_the_sticky_valve_first_and_the_dead_sensor_last(loops, tmp_path, capsys):
     import numpy as np
-
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     plant = tmp_path / "plant"
     plant.mkdir()
@@ -95,8 +94,7 @@ def test_csv_without_rank_is_refused(loops, capsys):
 
 def test_a_long_plant_export_is_sized_once_in_size_every_minutes_of_data_and_carried_between(tmp_path, capsys):
     import numpy as np
-
-    from sim.plant_loops import plant_loops, simulate_plant
+    from stiction.sim.plant_loops import plant_loops, simulate_plant
 
     loop = [x for x in plant_loops(8, 2027) if x.cause == "stiction"][6]  # first order, sampled every 5 s
     op, pv, sp, ts_s = simulate_plant([loop], samples=3000)[0]
@@ -121,8 +119,7 @@ def test_a_long_plant_export_is_sized_once_in_size_every_minutes_of_data_and_car
 
 def test_sizing_on_worker_processes_gives_the_same_reports_in_the_same_order(tmp_path, capsys):
     import numpy as np
-
-    from sim.plant_loops import plant_loops, simulate_plant, stable
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [x for x in plant_loops(8, 2027) if x.cause == "stiction"]
     for i, (op, pv, sp, ts_s) in enumerate(simulate_plant(loops)):

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from stiction.schemas.report import ProcessInfo, StictionReport
 
-from schemas.report import ProcessInfo, StictionReport
 from stiction import page
 from stiction.cli import main
 
@@ -97,9 +97,8 @@ def test_names_from_the_plant_are_text_not_markup():
 def test_the_latest_reports_of_a_live_key_space_make_the_same_page(tmp_path):
     """An agent's key space, answered by a queryable as the agent does; ``report --from`` collects it."""
     import zenoh
-
-    from bridge import zenoh_session
-    from schemas import keys
+    from stiction.bridge import zenoh_session
+    from stiction.schemas import keys
 
     endpoint = zenoh_session.free_loopback_endpoint()
     prefix = "test/report"

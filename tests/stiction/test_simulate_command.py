@@ -6,8 +6,8 @@ import sys
 
 import numpy as np
 import pytest
+from stiction.sim.export import read_grid
 
-from sim.export import read_grid
 from stiction.cli import main
 
 

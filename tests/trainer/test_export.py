@@ -3,9 +3,8 @@
 import numpy as np
 import onnxruntime as ort
 import torch
-
-from trainer import nets
-from trainer.export import export
+from stiction.trainer import nets
+from stiction.trainer.export import export
 
 
 def _run(path, name, x):

@@ -3,12 +3,11 @@
 from pathlib import Path
 
 import numpy as np
-
-from quantify.pipeline import Quantifier, Window
-from schemas.model_card import ModelCard
-from sim.loop import LoopSpec, simulate
-from trainer.fit import FitSettings
-from trainer.train import TrainSettings, run
+from stiction.quantify.pipeline import Quantifier, Window
+from stiction.schemas.model_card import ModelCard
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.trainer.fit import FitSettings
+from stiction.trainer.train import TrainSettings, run
 
 
 def test_small_training_run_writes_models_the_agent_loads(tmp_path: Path):
