@@ -65,8 +65,8 @@ def test_router_image_matches_the_zenoh_python_package():
 def test_the_image_copies_every_package_the_project_installs():
     import tomllib
 
-    include = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]["include"]
-    packages = {p.rstrip("*") for p in include}
+    setup = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    packages = {"stiction", *setup["package-dir"].values()}  # the folders installed under stiction.
     copied = {line.split()[1] for line in (ROOT / "Dockerfile").read_text().splitlines() if line.startswith("COPY ")}
     missing = sorted(p for p in packages if p not in copied and (ROOT / p).is_dir())
     assert not missing, f"Dockerfile does not COPY {missing}: the image's stiction would fail to import them"
