@@ -5,6 +5,9 @@ Each walks a 1000-sample window once or a few times with decisions per sample or
 cycle; in numpy they were some 60 small calls a window (0.6 ms of the 1.25 ms the evidence
 cost).  numba compiles them (``cache=True``: once per machine, as ``ident/kernels.py``); the
 plain loops in ``tests/detect/reference.py`` are the references they are tested against.
+A cache names the module it was compiled in (``stiction.detect.kernels`` since the one installed
+namespace): one made under another name is not loaded, since numba keys it by this file's size and time,
+and this file changed with that move.
 """
 
 from __future__ import annotations

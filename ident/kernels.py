@@ -6,6 +6,9 @@ vectorise over time; the third is four columns of one window, where numpy's per-
 was 100 us a window.  numba compiles them (``cache=True``: once per machine).  Their
 plain-Python (or plain numpy) transcriptions in ``tests/ident`` are the references they are
 tested against.
+A cache names the module it was compiled in (``stiction.ident.kernels`` since the one installed
+namespace): one made under another name is not loaded, since numba keys it by this file's size and time,
+and this file changed with that move.
 """
 
 from __future__ import annotations

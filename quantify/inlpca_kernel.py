@@ -8,6 +8,9 @@ window by window in compiled loops (``cache=True``: compiled once per machine), 
 arithmetic as ``quantify.inlpca.loss_and_grads`` and its Adam, which the tests hold it to.
 It runs without the GIL: a batch of fifty windows takes 150 ms, through which the agent's
 Zenoh callback thread must go on taking in samples.
+A cache names the module it was compiled in (``stiction.quantify.inlpca_kernel`` since the one installed
+namespace): one made under another name is not loaded, since numba keys it by this file's size and time,
+and this file changed with that move.
 """
 
 from __future__ import annotations
