@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from stiction.detect import kernels
-from stiction.detect.oscillation import detrend
+from stiction.detect.oscillation import Detrended, detrend, detrended
 
 NGI_MIN = 0.001
 NLI_MIN = 0.01
@@ -40,11 +40,11 @@ def squared_bicoherence(x: np.ndarray, segment: int) -> tuple[np.ndarray, int]:
     return b2, k
 
 
-def _domain_values(x: np.ndarray, segment: int) -> tuple[np.ndarray, int]:
+def _domain_values(x: np.ndarray, segment: int, d: Detrended | None = None) -> tuple[np.ndarray, int]:
     """The squared bicoherence at each pair of ``_domain`` (nan where undefined) and the segment count:
     half-overlapping Hann-windowed segments, one FFT for all, the sums over segments compiled."""
-    x = detrend(np.asarray(x, float))
-    x = x / (np.std(x) or 1.0)
+    d = d if d is not None else detrended(np.asarray(x, float))
+    x = d.y / (d.sd or 1.0)
     step = segment // 2
     starts = np.arange(0, x.size - segment + 1, step)
     segs = x[starts[:, None] + np.arange(segment)]  # [K, segment], half overlapping
@@ -64,11 +64,11 @@ def _domain(f: int) -> tuple[np.ndarray, np.ndarray]:
     return out
 
 
-def test(x: np.ndarray) -> Bicoherence:
-    """NGI and NLI of one signal (the control error or PV)."""
+def test(x: np.ndarray, d: Detrended | None = None) -> Bicoherence:
+    """NGI and NLI of one signal (the control error or PV; ``d``: its ``detrended``, where the caller has it)."""
     n = np.asarray(x).size
     segment = int(2 ** np.clip(np.floor(np.log2(n / 4)), 5, 7))  # 32..128 samples, at least ~7 segments
-    b2, k = _domain_values(x, segment)
+    b2, k = _domain_values(x, segment, d)
     values = b2[np.isfinite(b2)]
     if values.size == 0 or k < 2:
         return Bicoherence(float("nan"), float("nan"), False)

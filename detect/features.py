@@ -113,18 +113,26 @@ def evidence_rows(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sps=None) -
     op, pv = np.asarray(op, float), np.asarray(pv, float)
     sps = [None] * op.shape[0] if sps is None else sps
     errors = np.stack([p if sp is None else p - np.asarray(sp, float) for p, sp in zip(pv, sps, strict=True)])
-    bic = [bicoherence.test(e) for e in errors]  # one at a time: batched, the spectra outgrow the cache (3x slower)
+    # each signal detrended once for every test that reads it, all rows at once
+    d_op, d_pv, d_error = (oscillation.detrended_rows(x) for x in (op, pv, errors))
+    # one at a time: batched, the spectra outgrow the cache (3x slower)
+    bic = [bicoherence.test(e, d) for e, d in zip(errors, d_error, strict=True)]
     edges_op, edges_pv = _edges(op), _edges(pv)
     return [
-        _evidence(op[i], pv[i], errors[i], sps[i], ts_s, bic[i], edges_op[i], edges_pv[i]) for i in range(op.shape[0])
+        _evidence(
+            op[i], pv[i], errors[i], sps[i], ts_s, bic[i], edges_op[i], edges_pv[i], (d_op[i], d_pv[i], d_error[i])
+        )
+        for i in range(op.shape[0])
     ]
 
 
-def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv) -> Evidence:
-    osc = oscillation.detect(error, ts_s)
+def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended) -> Evidence:
+    d_op, d_pv, d_error = detrended
+    osc = oscillation.detect(error, ts_s, d_error)
     period = osc.period_s / ts_s if osc.period_s else None
-    h = horch.test(op, pv, sp, period)
-    si_op, si_pv = shape.stiction_index(op), shape.stiction_index(pv)
+    # Horch's error is sp - pv, the negative of ``error`` (pv - sp): detrending is linear
+    h = horch.test(op, pv, sp, period, d_op, oscillation.Detrended(-d_error.y, d_error.sd))
+    si_op, si_pv = shape.stiction_index(op, d_op), shape.stiction_index(pv, d_pv)
     vector = np.array(
         [
             np.log(min(max(osc.regularity, 1e-2), 1e3)),

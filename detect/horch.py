@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from stiction.detect.oscillation import detrend
+from stiction.detect.oscillation import Detrended, detrended
 
 STICTION = 2 / 3
 NO_STICTION = 1 / 3
@@ -51,12 +51,22 @@ def _crossing(lags: np.ndarray, c: np.ndarray) -> float:
     return float(lags[i] + (lags[i + 1] - lags[i]) * a / (a - b)) if a != b else float(lags[i])
 
 
-def test(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None, period_samples: float | None = None) -> Horch:
-    """Horch's test on one window; the error is ``sp - pv`` (``-pv`` detrended without a setpoint)."""
-    op = detrend(np.asarray(op, float))
-    e = -np.asarray(pv, float) if sp is None else np.asarray(sp, float) - np.asarray(pv, float)
-    e = detrend(e)
-    if not (np.std(op) > 0 and np.std(e) > 0):
+def test(
+    op: np.ndarray,
+    pv: np.ndarray,
+    sp: np.ndarray | None = None,
+    period_samples: float | None = None,
+    op_d: Detrended | None = None,
+    e_d: Detrended | None = None,
+) -> Horch:
+    """Horch's test on one window; the error is ``sp - pv`` (``-pv`` detrended without a setpoint).
+    ``op_d``, ``e_d``: OP's and the error's ``detrended``, where the caller has them."""
+    if op_d is None:
+        op_d = detrended(np.asarray(op, float))
+    if e_d is None:
+        e_d = detrended(-np.asarray(pv, float) if sp is None else np.asarray(sp, float) - np.asarray(pv, float))
+    op, e = op_d.y, e_d.y
+    if not (op_d.sd > 0 and e_d.sd > 0):
         return Horch(float("nan"), "undecided")
     max_lag = int(min(op.size // 2, period_samples if period_samples and np.isfinite(period_samples) else op.size // 4))
     lags, c = ccf(op, e, max(max_lag, 2))

@@ -56,6 +56,33 @@ def detrend(x: np.ndarray) -> np.ndarray:
     return x - x.mean() - slope * t
 
 
+@dataclass(frozen=True)
+class Detrended:
+    """A signal less its least-squares straight line, and that remainder's standard deviation: what
+    every test of the window starts from (``detrended_rows`` makes them for a batch at once)."""
+
+    y: np.ndarray
+    sd: float
+
+
+def detrended(x: np.ndarray) -> Detrended:
+    y = detrend(x)
+    return Detrended(y, float(np.std(y)))
+
+
+def detrended_rows(x: np.ndarray) -> list[Detrended]:
+    """``detrended`` of each row of ``x`` [W, N], computed for all rows at once."""
+    x = np.asarray(x, float)
+    n = x.shape[1]
+    if n < 2:
+        return [detrended(row) for row in x]
+    t = np.arange(n, dtype=float) - (n - 1) / 2
+    centred = x - x.mean(axis=1, keepdims=True)
+    y = centred - ((centred @ t) / float(t @ t))[:, None] * t
+    sd = y.std(axis=1)
+    return [Detrended(y[i], float(sd[i])) for i in range(x.shape[0])]
+
+
 def _crossings(x: np.ndarray, hysteresis: float) -> np.ndarray:
     """Indices where ``x`` passes from below ``-h`` to above ``+h`` or back, at its zero crossing:
     where the state (+1 above h, -1 below -h) changes, walked back to the first sample of the run
@@ -103,12 +130,13 @@ def half_cycles(y: np.ndarray, sd: float) -> tuple[np.ndarray, np.ndarray]:
     return smooth, _crossings(smooth, HYSTERESIS_STD * sd)
 
 
-def detect(x: np.ndarray, ts_s: float = 1.0) -> Oscillation:
-    """Whether one signal (PV or the control error, % of span) oscillates, its period and regularity."""
+def detect(x: np.ndarray, ts_s: float = 1.0, d: Detrended | None = None) -> Oscillation:
+    """Whether one signal (PV or the control error, % of span) oscillates, its period and regularity
+    (``d``: the signal's ``detrended``, where the caller has it)."""
     x = np.asarray(x, dtype=float)
     n = x.size
-    y = detrend(x)
-    sd = float(np.std(y))
+    d = d if d is not None else detrended(x)
+    y, sd = d.y, d.sd
     if not sd > 0:
         return Oscillation(False, None, 0.0, 0.0, 0.0)
     r_acf = autocorrelation(y, int(MAX_LAG_SHARE * n))[0]  # sd > 0, so c_0 > 0

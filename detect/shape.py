@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 from stiction.detect import kernels
-from stiction.detect.oscillation import detrend, half_cycles
+from stiction.detect.oscillation import Detrended, detrended, half_cycles
 
 STICTION = 0.6
 NO_STICTION = 0.4
@@ -22,14 +22,15 @@ APEX_SHARES = np.linspace(0.1, 0.9, APEXES)
 MIN_HALF_SAMPLES = 5
 
 
-def stiction_index(x: np.ndarray) -> float:
-    """SI of one signal, nan where it has fewer than two whole half cycles.
+def stiction_index(x: np.ndarray, d: Detrended | None = None) -> float:
+    """SI of one signal, nan where it has fewer than two whole half cycles (``d``: its ``detrended``, where
+    the caller has it).
 
     Every half cycle ``y[a..b]`` (both ends) of at least ``MIN_HALF_SAMPLES`` samples is fitted with
     ``p * shape + q`` for the half sine and each triangle, in closed form from per-half-cycle sums
     (``SSE = Syy - Sys^2 / Sss`` on centred sums), compiled in ``detect.kernels``."""
-    y = detrend(np.asarray(x, float))
-    sd = float(np.std(y))
+    d = d if d is not None else detrended(np.asarray(x, float))
+    y, sd = d.y, d.sd
     if not sd > 0:
         return float("nan")
     _, zc = half_cycles(y, sd)

@@ -148,3 +148,28 @@ def test_compiled_stuck_ramp_equals_the_plain_loop(seed):
         assert kernels.stuck_ramp(y, pv, u, *args) == pytest.approx(reference.stuck_ramp(y, pv, u, *args), abs=1e-12)
     share, travel = kernels.stuck_ramp(y, pv, u, 8, 0.25, 0.15, 2.5, 0.95)
     assert seed == 0 or (share > 0 and 2.5 <= travel <= np.ptp(u))  # a quarter of OP's range at least
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_batched_evidence_equals_each_test_run_on_its_own_signal(seed):
+    """``features.evidence_rows`` detrends OP, PV and the error once for a batch and hands them to
+    every test; the tests run alone (detrending for themselves) must read the same."""
+    from stiction.detect import features
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(600.0)
+    op = np.stack([np.sign(np.sin(t / 19 + k)) + 0.1 * t / 600 + rng.normal(0, 0.05, t.size) for k in range(4)])
+    pv = np.stack([np.cumsum(o) / 20 + rng.normal(0, 0.02, t.size) for o in op])
+    sps = [None, np.full(t.size, 1.0), None, 0.5 + 0.01 * t]
+    batched = features.evidence_rows(op, pv, 2.0, sps)
+    for i, ev in enumerate(batched):
+        error = pv[i] if sps[i] is None else pv[i] - sps[i]
+        osc = oscillation.detect(error, 2.0)
+        assert osc.period_s == pytest.approx(ev.oscillation.period_s, rel=1e-9)
+        assert osc.regularity == pytest.approx(ev.oscillation.regularity, rel=1e-9)
+        h = horch.test(op[i], pv[i], sps[i], osc.period_s / 2.0 if osc.period_s else None)
+        assert h.phase == pytest.approx(ev.horch.phase, rel=1e-9, nan_ok=True)
+        assert shape.stiction_index(op[i]) == pytest.approx(ev.shape_op, rel=1e-9, nan_ok=True)
+        assert shape.stiction_index(pv[i]) == pytest.approx(ev.shape_pv, rel=1e-9, nan_ok=True)
+        b = bicoherence.test(error)
+        assert (b.ngi, b.nli) == pytest.approx((ev.bicoherence.ngi, ev.bicoherence.nli), rel=1e-9, nan_ok=True)
