@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import ValidationError
+
 from stiction.agent.ownership import assign, rank
 from stiction.agent.window import RollingWindow
 from stiction.quantify.window import Reading, Window

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
 from stiction.agent.core import AgentCore, CoreSettings
 from stiction.agent.sizing_plan import SizingPlan
 from stiction.quantify.assembly import assemble, needs_sizing

@@ -13,6 +13,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+
 from stiction.bench.baselines.ellipse import apparent_stiction
 from stiction.bench.baselines.hammerstein import hammerstein_search
 from stiction.quantify.features import thesis_window

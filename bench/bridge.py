@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 from stiction.bench.throughput import _proc_stats
 from stiction.bridge import zenoh_session
 from stiction.schemas import keys

@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 from stiction.detect.training import SIM_SEED
 
 METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")

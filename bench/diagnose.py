@@ -19,6 +19,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+
 from stiction.ident.diagnose import diagnose
 from stiction.ident.models import cause_parameters
 from stiction.ident.record import Record

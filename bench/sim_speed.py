@@ -6,6 +6,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+
 from stiction.sim.grid import case_specs, training_specs
 from stiction.sim.loop import LoopState, advance, build_batch, disturbance_signals, simulate
 from stiction.sim.reference import IN_PER_PCT, RefState, reference_interval, reference_simulate

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
+
 from stiction.bridge import zenoh_session
 from stiction.bridge.publish import SamplePublisher
 from stiction.schemas import keys

@@ -8,6 +8,7 @@ from __future__ import annotations
 import warnings as _warnings
 
 import numpy as np
+
 from stiction.schemas.errors import InputError
 
 GAP_TOLERANCE = 0.01

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
 from stiction.bridge.cells import ALIASES, GAP_TOLERANCE, find_column, finite, numbers, relabel_off_grid, row_numbers
 from stiction.bridge.dialect import Dialect, sniff
 from stiction.schemas.errors import InputError

@@ -14,6 +14,7 @@ import threading
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from stiction.schemas import keys
 from stiction.schemas.messages import MAX_BATCH_SAMPLES
 

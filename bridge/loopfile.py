@@ -6,6 +6,7 @@ import tomllib
 from pathlib import Path
 
 from pydantic import ValidationError
+
 from stiction.schemas.errors import InputError
 from stiction.schemas.loop_file import LoopFile
 

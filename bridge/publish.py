@@ -14,6 +14,7 @@ import json
 import logging
 
 import numpy as np
+
 from stiction.bridge.history import SampleHistory
 from stiction.schemas import keys
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
 from stiction.schemas.messages import MAX_BATCH_SAMPLES
 
 _NOT_IN_ID = re.compile(r"[^A-Za-z0-9_.:=+#-]")

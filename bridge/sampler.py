@@ -17,6 +17,7 @@ from collections import Counter, deque
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.schemas.loop_file import LoopNodes
 from stiction.schemas.messages import MAX_BATCH_SAMPLES
 

@@ -15,6 +15,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.detect import kernels
 from stiction.detect.oscillation import Detrended, detrend, detrended
 

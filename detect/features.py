@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import median_filter
+
 from stiction.detect import bicoherence, horch, kernels, oscillation, setpoint, shape
 
 NAMES = (

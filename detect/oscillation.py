@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.detect import kernels
 
 REGULAR = 1.5

@@ -11,6 +11,7 @@ for none.
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.detect import kernels
 from stiction.detect.oscillation import Detrended, detrended, half_cycles
 

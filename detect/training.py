@@ -9,6 +9,7 @@ with or without a slip: backlash counts); otherwise it is the look-alike it was 
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.detect.features import evidence
 from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
 from stiction.sim.grid import random_loops

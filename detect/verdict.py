@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize
+
 from stiction.detect.features import NAMES, Evidence
 
 STICTION_AT = 0.5

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from stiction.ident.fit import criterion, fit_valve
 from stiction.ident.friction import Friction, effective_samples, load_amplitude_pct
 from stiction.ident.models import APPLY, NO_SPREAD, Model

@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.ident import kernels
 
 MIN_EXPLAINED = 0.999

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+
 from stiction.ident import checks, lattice
 from stiction.ident.cause_fit import (
     CAUSES_FITTED_IN_FULL,

@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import fields, replace
 
 import numpy as np
+
 from stiction.ident import kernels
 from stiction.ident.objective import nuisance_basis, project_out
 from stiction.ident.process import TransferFunction, transfer_function

@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.ident.objective import nuisance_basis, project_out
 from stiction.ident.record import Record
 from stiction.ident.valve_model import ValveFit, drive_of, path_regressors

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
 from stiction.ident.friction import Friction, simulated_pv
 from stiction.ident.record import Record
 from stiction.ident.valve_model import Hypothesis, ValveFit

@@ -9,6 +9,7 @@ and dynamics (variable projection, Golub & Pereyra 1973).
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.ident.process import TransferFunction
 from stiction.ident.record import Record, orthonormal_basis
 

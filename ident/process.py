@@ -17,6 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.signal import lfilter
+
 from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
 
 NOMINAL = LOOPS["level"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from stiction.detect.features import stuck_travel
 from stiction.ident.cause_fit import residual_periods
 from stiction.ident.checks import blocking, data_checks, impossible_friction

@@ -7,6 +7,7 @@ piecewise constant plus noise; the pieces' ends are the slips.
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.ident import kernels
 
 

@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
 from stiction.schemas.diagnosis import Process
 from stiction.sim.valve import friction_pct, friction_se_pct
 

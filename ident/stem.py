@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+
 from stiction.ident import lattice
 from stiction.ident.process import Dynamics, transfer_function
 from stiction.ident.segment import segment_ends

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.ident.fit import criterion, fit_valve
 from stiction.ident.friction import friction, stem_path
 from stiction.ident.process import NOMINAL, Dynamics

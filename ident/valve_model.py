@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from stiction.ident.objective import project_out
 from stiction.ident.process import Dynamics, TransferFunction
 from stiction.ident.record import Record

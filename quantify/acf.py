@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.detect.oscillation import autocorrelation
 
 __all__ = ["acf_period", "autocorrelation"]

@@ -10,6 +10,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.quantify import features, inlpca, physical
 from stiction.quantify.acf import acf_period
 

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.quantify.inlpca import InlpcaFit
 
 THESIS_WINDOW = 100

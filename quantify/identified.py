@@ -14,6 +14,7 @@ import contextlib
 import os
 
 import numpy as np
+
 from stiction.ident.sizing import Sizing
 from stiction.quantify.assembly import assemble, needs_sizing, with_model
 from stiction.schemas.report import StictionReport

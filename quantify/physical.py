@@ -24,6 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.ident.segment import noise_variance, segment_ends
 from stiction.sim.process import LOOPS
 from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
 from stiction.detect import features
 from stiction.detect.training import DETECTOR_FILE
 from stiction.detect.verdict import Detector, decide

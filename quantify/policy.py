@@ -14,6 +14,7 @@ All three read the thesis's level loop: where its process is neither declared no
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.detect.verdict import Verdict
 from stiction.ident import controller
 from stiction.ident.checks import impossible_friction

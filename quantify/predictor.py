@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import onnxruntime as ort
+
 from stiction.quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
 from stiction.quantify.inlpca import InlpcaSettings
 from stiction.schemas.errors import StictionError

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.schemas.errors import InputError
 
 MIN_SAMPLES = 100

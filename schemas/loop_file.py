@@ -17,6 +17,7 @@ from __future__ import annotations
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
+
 from stiction.schemas import keys
 
 NODE_ID = r"^(ns=\d+;|nsu=[^;]+;)?[isgb]=.+$"

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.sim.extensions import backlash
 from stiction.sim.valve import Friction, lagged_valve_step, valve_step
 

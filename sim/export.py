@@ -15,6 +15,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+
 from stiction.sim.loop import SimResult
 from stiction.sim.valve import band_and_jump_pct
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+
 from stiction.sim.actuator import actuate
 from stiction.sim.disturbance import Disturbance, rms, unit_shape
 from stiction.sim.extensions import Extensions

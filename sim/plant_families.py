@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.sim.disturbance import unit_shape
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, build_batch, run_batch

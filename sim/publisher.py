@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
 from stiction.bridge.publish import SamplePublisher
 from stiction.schemas import keys
 from stiction.schemas.messages import LoopTruth

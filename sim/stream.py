@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from stiction.sim.disturbance import rms, unit_shape
 from stiction.sim.loop import (
     DURATION_S,

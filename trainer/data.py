@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from stiction.quantify.analysis import analyse
 from stiction.sim.extensions import Extensions
 from stiction.sim.grid import random_disturbance, training_specs

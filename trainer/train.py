@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from tqdm import tqdm
+
 from stiction.quantify.analysis import analyse
 from stiction.quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
 from stiction.quantify.inlpca import InlpcaSettings
@@ -21,7 +23,6 @@ from stiction.sim.loop import simulate
 from stiction.trainer import data, nets
 from stiction.trainer.export import export
 from stiction.trainer.fit import FitSettings, fit
-from tqdm import tqdm
 
 log = logging.getLogger(__name__)
 

@@ -13,6 +13,7 @@ It does not give fd.
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.quantify.acf import acf_period
 from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 

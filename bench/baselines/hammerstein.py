@@ -15,6 +15,7 @@ candidate of every window at once.
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.quantify.physical import LEVEL_GAIN_PER_S
 from stiction.sim.valve import FRICTION_FULL_SCALE_LBF, VALVE
 

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+
 from stiction.agent.core import AgentCore, CoreSettings
 
 KEY = "stiction/demo/loop/L1/samples"

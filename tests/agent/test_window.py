@@ -1,6 +1,7 @@
 """The rolling window against a batch computation of the same tail, without broker or sleeps."""
 
 import numpy as np
+
 from stiction.agent.window import RollingWindow
 
 

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from stiction.bridge import historian
 from stiction.bridge.historian import read_export
 from stiction.schemas.errors import InputError

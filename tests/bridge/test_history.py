@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+
 from stiction.bridge.history import SampleHistory
 from stiction.schemas import keys
 from stiction.schemas.messages import SampleBatch

@@ -1,6 +1,7 @@
 """Loop files: TOML and YAML read the same; every mistake is one line naming the file and the field."""
 
 import pytest
+
 from stiction.bridge.loopfile import dumps, load, parse
 from stiction.schemas.errors import InputError
 

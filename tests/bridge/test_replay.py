@@ -1,6 +1,7 @@
 """Replay: exports become streams that carry every sample once, in order, at the asked speed."""
 
 import numpy as np
+
 from stiction.bridge.replay import Schedule, Track, loop_ids
 from stiction.schemas.messages import SampleBatch
 

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+
 from stiction.bridge.sampler import Reading, Sampler
 from stiction.schemas.loop_file import LoopNodes
 from stiction.schemas.messages import SampleBatch

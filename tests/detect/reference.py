@@ -1,6 +1,7 @@
 """Plain per-half-cycle loops: the references the vectorised detect code is checked against."""
 
 import numpy as np
+
 from stiction.detect.oscillation import detrend, half_cycles
 from stiction.detect.shape import APEXES
 

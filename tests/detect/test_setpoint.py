@@ -4,6 +4,7 @@ setpoint step is found; a valve that moves, with or without a deadband smaller t
 
 import numpy as np
 import pytest
+
 from stiction.detect.features import evidence
 from stiction.detect.training import DETECTOR_FILE
 from stiction.detect.verdict import STEP_AT, STICTION_AT, Detector, decide

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.detect import bicoherence, horch, oscillation, shape
 
 
@@ -71,7 +72,6 @@ def test_ellipse_band_is_the_plot_width_at_mean_pv():
 def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed):
     from stiction.detect.oscillation import _amplitude, detrend, half_cycles
     from stiction.detect.shape import stiction_index
-
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -91,7 +91,6 @@ def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed)
 def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
     from stiction.detect.bicoherence import squared_bicoherence
     from stiction.detect.oscillation import _crossings, detrend
-
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -113,7 +112,6 @@ def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
 def test_compiled_stick_slip_shares_equal_the_plain_loops(seed):
     from stiction.detect import kernels
     from stiction.detect.features import EDGE_MEDIAN, TOP_SHARE, _edges
-
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -133,7 +131,6 @@ def test_compiled_stick_slip_shares_equal_the_plain_loops(seed):
 def test_compiled_stuck_ramp_equals_the_plain_loop(seed):
     from stiction.detect import kernels
     from stiction.detect.features import _edges
-
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)

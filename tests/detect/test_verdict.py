@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.detect.features import evidence
 from stiction.detect.training import DETECTOR_FILE, SIM_SEED
 from stiction.detect.verdict import STICTION_AT, Detector, decide, fit_logistic

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.ident.controller import MIN_EXPLAINED, fit_pi, matches
 from stiction.sim.grid import case_specs, random_loops
 from stiction.sim.loop import simulate

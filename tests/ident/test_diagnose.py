@@ -6,6 +6,7 @@ code under test is not given; diagnose sees OP and PV only.  Seeds are fixed.
 
 import numpy as np
 import pytest
+
 from stiction.ident.diagnose import diagnose
 from stiction.ident.models import cause_parameters
 from stiction.ident.record import Record

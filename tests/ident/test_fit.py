@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.ident import fit as F  # noqa: N812
 from stiction.ident import valve_model as M  # noqa: N812
 from stiction.ident.friction import friction
@@ -12,7 +13,6 @@ from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, simulate
 from stiction.sim.process import LOOPS, continuous_plant, discretise
-
 from tests.ident.walk_reference import walk_by_sample
 
 

@@ -4,6 +4,7 @@ from itertools import combinations
 
 import numpy as np
 import pytest
+
 from stiction.ident.segment import noise_variance, segment_ends
 
 

@@ -4,6 +4,7 @@ import math
 from types import SimpleNamespace
 
 import pytest
+
 from stiction.ident.friction import Friction
 from stiction.ident.sizing import from_report, size
 from stiction.ident.trust import MODEL_ERROR_J, MODEL_ERROR_S, with_model_error

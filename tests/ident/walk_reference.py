@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from stiction.ident.fit import _as_slips, _breaks
 from stiction.ident.valve_model import Drive, Slips
 

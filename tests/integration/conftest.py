@@ -4,6 +4,7 @@ import threading
 import time
 
 import pytest
+
 from stiction.quantify.pipeline import Quantifier
 
 

@@ -7,6 +7,7 @@ import threading
 import numpy as np
 import pytest
 import zenoh
+
 from stiction.agent.core import CoreSettings
 from stiction.agent.service import AgentService, AgentSettings
 from stiction.bridge import zenoh_session
@@ -17,7 +18,6 @@ from stiction.schemas.report import StictionReport
 from stiction.sim.grid import case_specs
 from stiction.sim.publisher import batch
 from stiction.sim.stream import LoopStream
-
 from tests.integration.conftest import wait_until
 
 PREFIX = "test/bad"

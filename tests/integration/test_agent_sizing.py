@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 import zenoh
+
 from stiction.bridge import zenoh_session
 from stiction.schemas import keys
 from stiction.schemas.report import StictionReport
-
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"

@@ -14,11 +14,11 @@ import time
 
 import pytest
 import zenoh
+
 from stiction.bridge import zenoh_session
 from stiction.bridge.loopfile import dumps, load
 from stiction.schemas import keys
 from stiction.schemas.report import StictionReport
-
 from tests.integration.conftest import start_cli, wait_until
 
 pytest.importorskip("asyncua")

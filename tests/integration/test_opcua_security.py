@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 import zenoh
+
 from stiction.bridge import zenoh_session
 from stiction.schemas import keys
-
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 pytest.importorskip("asyncua")

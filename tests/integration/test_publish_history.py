@@ -4,11 +4,11 @@ import threading
 
 import numpy as np
 import zenoh
+
 from stiction.bridge import zenoh_session
 from stiction.bridge.publish import SamplePublisher
 from stiction.schemas import keys
 from stiction.schemas.messages import SampleBatch
-
 from tests.integration.conftest import wait_until
 
 PREFIX = "test/history"

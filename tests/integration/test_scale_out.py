@@ -12,11 +12,11 @@ import threading
 import time
 
 import zenoh
+
 from stiction.bridge import zenoh_session
 from stiction.schemas import keys
 from stiction.schemas.messages import AgentHealth
 from stiction.schemas.report import StictionReport
-
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
 
 PREFIX = "test/scale"

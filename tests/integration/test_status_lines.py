@@ -7,8 +7,8 @@ import signal
 import threading
 
 import zenoh
-from stiction.bridge import zenoh_session
 
+from stiction.bridge import zenoh_session
 from stiction.cli import build_parser
 from tests.integration.conftest import start_cli, wait_until
 

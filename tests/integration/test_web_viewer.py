@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from stiction.bridge import zenoh_session
 
 ROOT = Path(__file__).resolve().parents[2]

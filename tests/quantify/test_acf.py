@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from stiction.quantify.acf import acf_period, autocorrelation
 from stiction.sim.grid import case_specs
 from stiction.sim.loop import simulate

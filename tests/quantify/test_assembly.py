@@ -2,6 +2,7 @@
 warning is added where its fact is known (no sizing, a failed one, a read one), never taken back."""
 
 import pytest
+
 from stiction.ident.sizing import Sizing
 from stiction.quantify.assembly import NOT_IDENTIFIED, NOT_READ_PREFIX, NOT_READ_WARNING, assemble, needs_sizing
 from stiction.quantify.identified import quantify_sized

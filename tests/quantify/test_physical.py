@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.quantify import physical
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.grid import case_specs

@@ -5,6 +5,7 @@ import sys
 
 import numpy as np
 import pytest
+
 from stiction.detect.verdict import LEANS_AT
 from stiction.quantify.identified import quantify_sized
 from stiction.quantify.pipeline import Quantifier, Window
@@ -347,7 +348,6 @@ def test_every_method_reads_the_band_a_travel_test_measures(quantifier):
     moves): the physical, learned and identified readings agree with it within their standard errors."""
     from stiction.ident.sizing import size
     from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct
-
     from tests.sim.test_valve import _reversal_travels_pct
 
     specs = [LoopSpec(40.0, 15.0, seed=3), LoopSpec(70.0, 50.0, seed=4), LoopSpec(25.0, 5.0, seed=5)]

@@ -4,6 +4,7 @@ import json
 import shutil
 
 import pytest
+
 from stiction.quantify.predictor import DEFAULT_MODELS_DIR, ModelError, Predictor
 
 

@@ -2,6 +2,7 @@ import json
 
 import pytest
 from pydantic import ValidationError
+
 from stiction.schemas import keys
 from stiction.schemas.export import JSON_DIR, schemas
 from stiction.schemas.messages import MAX_BATCH_SAMPLES, SampleBatch

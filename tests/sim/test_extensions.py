@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.sim.extensions import CATALOGUE, Extensions, backlash
 from stiction.sim.loop import LoopSpec, simulate
 from stiction.sim.process import LOOPS, continuous_plant, discretise

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+
 from stiction.sim.disturbance import Disturbance, kasdin_ar_coefficients, rms, unit_shape
 from stiction.sim.grid import NOISY_CASES, case_specs, training_grid_lbf, training_specs
 from stiction.sim.loop import LoopSpec, disturbance_signals, simulate

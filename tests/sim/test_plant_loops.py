@@ -1,6 +1,7 @@
 """The plant-like loops' labels say what their simulated valves do."""
 
 import numpy as np
+
 from stiction.sim.loop import build_batch, run_batch
 from stiction.sim.plant_loops import plant_loops
 

@@ -1,6 +1,7 @@
 """The streamed loops are the batch simulator's, sample for sample, over its 2000 s."""
 
 import numpy as np
+
 from stiction.sim.extensions import Extensions
 from stiction.sim.grid import case_specs
 from stiction.sim.loop import LoopSpec, simulate

@@ -1,6 +1,7 @@
 """Valve physics: stuck stems, sticking, slips, He's model, actuator lag."""
 
 import numpy as np
+
 from stiction.sim.loop import LoopSpec, simulate
 from stiction.sim.reference import IN_PER_PCT, RefState, reference_interval
 from stiction.sim.valve import (

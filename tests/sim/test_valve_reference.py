@@ -7,6 +7,7 @@ the same OP and disturbance; the stem positions must agree within 0.05 % of span
 
 import numpy as np
 import pytest
+
 from stiction.bench.sim_speed import interval_agreement
 from stiction.sim.grid import case_specs
 from stiction.sim.loop import LoopState, advance, build_batch, run_batch

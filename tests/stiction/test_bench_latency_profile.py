@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from stiction.bench.throughput import _p99_by_bucket
 
 

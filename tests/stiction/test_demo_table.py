@@ -1,12 +1,12 @@
 """The demo's table says why a loop has no friction numbers, not only that it has none."""
 
 import numpy as np
+
+from stiction.commands.demo import _table
 from stiction.quantify.pipeline import Quantifier, Window
 from stiction.schemas.messages import LoopTruth
 from stiction.sim.grid import case_specs
 from stiction.sim.loop import simulate
-
-from stiction.commands.demo import _table
 
 
 def _truth(loop_id):

@@ -61,6 +61,7 @@ def test_plot_writes_one_png_per_loop_that_is_not_blank(loops, tmp_path, capsys)
 
 def test_rank_puts_the_sticky_valve_first_and_the_dead_sensor_last(loops, tmp_path, capsys):
     import numpy as np
+
     from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     plant = tmp_path / "plant"
@@ -94,6 +95,7 @@ def test_csv_without_rank_is_refused(loops, capsys):
 
 def test_a_long_plant_export_is_sized_once_in_size_every_minutes_of_data_and_carried_between(tmp_path, capsys):
     import numpy as np
+
     from stiction.sim.plant_loops import plant_loops, simulate_plant
 
     loop = [x for x in plant_loops(8, 2027) if x.cause == "stiction"][6]  # first order, sampled every 5 s
@@ -119,6 +121,7 @@ def test_a_long_plant_export_is_sized_once_in_size_every_minutes_of_data_and_car
 
 def test_sizing_on_worker_processes_gives_the_same_reports_in_the_same_order(tmp_path, capsys):
     import numpy as np
+
     from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
     loops = [x for x in plant_loops(8, 2027) if x.cause == "stiction"]

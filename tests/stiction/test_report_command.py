@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from stiction.schemas.report import ProcessInfo, StictionReport
 
 from stiction import page
 from stiction.cli import main
+from stiction.schemas.report import ProcessInfo, StictionReport
 
 ROOT = Path(__file__).resolve().parents[2]
 PLAYWRIGHT = ROOT / "build" / "browser" / "node_modules" / "playwright-core"
@@ -97,6 +97,7 @@ def test_names_from_the_plant_are_text_not_markup():
 def test_the_latest_reports_of_a_live_key_space_make_the_same_page(tmp_path):
     """An agent's key space, answered by a queryable as the agent does; ``report --from`` collects it."""
     import zenoh
+
     from stiction.bridge import zenoh_session
     from stiction.schemas import keys
 

@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 import pytest
-from stiction.sim.export import read_grid
 
 from stiction.cli import main
+from stiction.sim.export import read_grid
 
 
 def _read(path):

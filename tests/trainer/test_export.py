@@ -3,6 +3,7 @@
 import numpy as np
 import onnxruntime as ort
 import torch
+
 from stiction.trainer import nets
 from stiction.trainer.export import export
 

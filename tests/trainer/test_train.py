@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import numpy as np
+
 from stiction.quantify.pipeline import Quantifier, Window
 from stiction.schemas.model_card import ModelCard
 from stiction.sim.loop import LoopSpec, simulate
