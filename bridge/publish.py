@@ -21,6 +21,19 @@ from stiction.schemas import keys
 log = logging.getLogger(__name__)
 
 DEFAULT_LAST = 1000
+STAGGER_STEP_S = 0.05
+"""A publisher sends its loops' batches in groups this far apart over each message interval."""
+
+
+def stagger_groups(n_loops: int, interval_s: float, step_s: float = STAGGER_STEP_S) -> list[np.ndarray]:
+    """The loops' indices in the groups a publisher sends one after another, ``step_s`` apart, over
+    each interval of ``interval_s`` between a loop's messages: loop ``j`` in group ``j mod groups``.
+
+    Sent in the same instant, every loop's batch of several seconds makes the loops that fall due
+    in it (a twelfth of them, for 5-s batches and a report every 60 samples) due at once, and their
+    reports wait on each other; a bridge spreads its loops over the interval, and so do these."""
+    groups = int(max(1, min(n_loops, round(interval_s / step_s))))
+    return [np.arange(k, n_loops, groups) for k in range(groups)]
 
 
 def encode(batch: dict) -> bytes:

@@ -62,11 +62,26 @@ def track(loop_id: str, export, process: str | None = None) -> Track:
 
 
 class Schedule:
-    def __init__(self, tracks: Sequence[Track], speed: float):
+    def __init__(self, tracks: Sequence[Track], speed: float, rate_hz: float | None = None, groups: int = 1):
+        """``rate_hz``: each loop sends at most this often, what came due since its last message in
+        one batch; ``groups``: the loops take turns over each interval (``bridge.publish.stagger_groups``,
+        loop ``i`` offset by ``(i mod groups) / groups`` of it) instead of all sending at once."""
         self.tracks = list(tracks)
         self.speed = float(speed)
+        self.rate_hz = rate_hz
+        self.groups = max(1, min(int(groups), len(self.tracks) or 1))
+        self.phase_s = (
+            np.zeros(len(self.tracks))
+            if rate_hz is None
+            else (np.arange(len(self.tracks)) % self.groups) / self.groups / rate_hz
+        )
         self.sent = [0] * len(self.tracks)
         self.samples_published = 0
+
+    @property
+    def step_s(self) -> float | None:
+        """How often a publisher should ask what is due: each group's turn (None: whenever it likes)."""
+        return None if self.rate_hz is None else 1.0 / self.rate_hz / self.groups
 
     @property
     def done(self) -> bool:
@@ -81,7 +96,13 @@ class Schedule:
         """``SampleBatch`` dicts of every sample due by ``elapsed_s`` of wall clock and not yet sent."""
         out = []
         for i, t in enumerate(self.tracks):
-            upto = min(t.op.size, int(np.floor(elapsed_s * self.speed / t.ts_s + 1e-9)) + 1)
+            clock_s = elapsed_s
+            if self.rate_hz is not None:  # this loop's last turn: its own tick, offset by its group
+                turn = np.floor((elapsed_s - self.phase_s[i]) * self.rate_hz + 1e-9)
+                clock_s = turn / self.rate_hz + self.phase_s[i]
+                if turn < 0:
+                    continue
+            upto = min(t.op.size, int(np.floor(clock_s * self.speed / t.ts_s + 1e-9)) + 1)
             for lo in range(self.sent[i], upto, MAX_BATCH_SAMPLES):
                 hi = min(lo + MAX_BATCH_SAMPLES, upto)
                 batch = {

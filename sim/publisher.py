@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stiction.bridge.publish import SamplePublisher
+from stiction.bridge.publish import SamplePublisher, stagger_groups
 from stiction.schemas import keys
 from stiction.schemas.messages import LoopTruth
 from stiction.sim.grid import random_disturbance
@@ -36,6 +36,9 @@ class PublisherSettings:
     """Simulated seconds per wall-clock second."""
     rate_hz: float = 1.0
     """Messages per second per loop; each carries ``speed / rate_hz`` samples."""
+    stagger: bool = True
+    """Spread the loops' messages over each interval (``bridge.publish.stagger_groups``), as a bridge
+    does; False sends every loop's in the same instant."""
     warmup_s: float = 1000.0
     noise_free_share: float = 0.25
     duration_s: float | None = None
@@ -106,6 +109,7 @@ def run(
         stream.next(int(settings.warmup_s / ts))
     process = ["level" if s.loop == "level" and not s.extensions.active() else None for s in specs.values()]
     per_tick = settings.speed / settings.rate_hz / ts  # samples per message
+    groups = stagger_groups(len(ids), 1.0 / settings.rate_hz) if settings.stagger else [np.arange(len(ids))]
     started = time.monotonic()
     owed, published, tick = 0.0, 0, 0
     log.info("publishing %d loops at %gx real time, %.3g samples a message", len(ids), settings.speed, per_tick)
@@ -116,9 +120,12 @@ def run(
             if n:
                 owed -= n
                 chunk = stream.next(n)
-                for j, loop_id in enumerate(ids):
-                    op, pv, sp = chunk.op[j], chunk.pv[j], chunk.sp[j]
-                    out.put(batch(loop_id, chunk.seq, chunk.t0_s, ts, op, pv, sp, process[j]))
+                for k, group in enumerate(groups):  # spread over the tick, not all in one instant
+                    if k:
+                        stop.wait(max(0.0, started + (tick + k / len(groups)) / settings.rate_hz - time.monotonic()))
+                    for j in group:
+                        op, pv, sp = chunk.op[j], chunk.pv[j], chunk.sp[j]
+                        out.put(batch(ids[j], chunk.seq, chunk.t0_s, ts, op, pv, sp, process[j]))
                 published += n
             tick += 1
             if on_tick:

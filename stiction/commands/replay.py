@@ -73,11 +73,13 @@ def publish(schedule, out, stop: threading.Event, rate_hz: float, status_every_s
                 f"{schedule.samples_published} samples sent",
                 flush=True,
             )
-        stop.wait(max(0.0, started + (int((now - started) * rate_hz) + 1) / rate_hz - time.monotonic()))
+        step = schedule.step_s or 1.0 / rate_hz  # each group of loops' turn (bridge.replay.Schedule)
+        stop.wait(max(0.0, started + (int((now - started) / step) + 1) * step - time.monotonic()))
     return schedule.samples_published
 
 
 def run(args: argparse.Namespace) -> int:
+    from stiction.bridge.publish import stagger_groups
     from stiction.bridge.replay import Schedule
 
     if args.speed <= 0 or args.rate <= 0:
@@ -89,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
         keys.check_id(t.loop_id)
     if not args.listen and not args.connect and args.config is None:
         args.listen = [DEFAULT_ENDPOINT]
-    schedule = Schedule(tracks, args.speed)
+    groups = len(stagger_groups(len(tracks), 1.0 / args.rate))
+    schedule = Schedule(tracks, args.speed, args.rate, groups)
     print(
         f"replay: {len(tracks)} loops to {zenoh_config.samples_keys(args)} at {args.speed:g}x, "
         f"{schedule.duration_s:.0f} s of wall clock" + (f"; {len(failed)} file(s) skipped" if failed else ""),

@@ -37,3 +37,37 @@ def test_a_column_with_a_missing_value_is_left_out_of_that_batch_only():
 def test_loop_ids_are_key_safe_and_unique():
     ids = loop_ids(["x/stic_2#CDU.7040 FIC/1.csv", "y/stic_2#CDU.7040 FIC/1.csv", "z/#A*B?.csv", "w/a.b=1.csv"])
     assert ids == ["1", "1-2", "_A_B_", "a.b=1"]
+
+
+def test_staggered_loops_each_send_once_an_interval_at_their_own_turn_and_lose_nothing():
+    """At ``rate_hz`` with ``groups``, loop i sends at (m + (i mod groups) / groups) / rate_hz: what came
+    due since its last turn, in one batch; over a run every sample goes out once, none before its time."""
+    tracks = [_track(f"l{i}", 60, 1.0) for i in range(6)]
+    s = Schedule(tracks, speed=1.0, rate_hz=0.2, groups=3)  # a batch every 5 s, turns 5/3 s apart
+    assert s.step_s == 5.0 / 3
+    sent_at: dict[str, list[float]] = {t.loop_id: [] for t in tracks}
+    got: dict[str, list[float]] = {t.loop_id: [] for t in tracks}
+    for k in range(0, 80):
+        elapsed = k * s.step_s
+        for batch in s.due(elapsed):
+            m = SampleBatch.model_validate(batch)
+            assert m.seq == len(got[m.loop_id]) and (m.seq + len(m.op) - 1) <= elapsed  # in order, none early
+            got[m.loop_id] += m.op
+            sent_at[m.loop_id].append(elapsed)
+    assert s.done and all(got[t.loop_id] == t.op.tolist() for t in tracks)
+    # each loop every 5 s, at its group's offset: l0 and l3 at 0, 5, 10 ...; l1 and l4 5/3 s later
+    for i, t in enumerate(tracks):
+        times = np.array(sent_at[t.loop_id])
+        assert np.allclose(np.diff(times), 5.0)
+        assert np.isclose(times[0] % 5.0, (i % 3) * 5.0 / 3)
+    # in any one turn only one group of loops sends
+    assert all(len({int(i[1:]) % 3 for i, at in sent_at.items() if np.isclose(at, x).any()}) == 1
+               for x in {round(v, 6) for ts in sent_at.values() for v in ts})  # fmt: skip
+
+
+def test_stagger_groups_cover_every_loop_once_and_step_the_interval():
+    from stiction.bridge.publish import stagger_groups
+
+    groups = stagger_groups(1000, 5.0)
+    assert len(groups) == 100 and sorted(np.concatenate(groups).tolist()) == list(range(1000))
+    assert len(stagger_groups(3, 5.0)) == 3 and len(stagger_groups(10, 0.01)) == 1
