@@ -9,7 +9,7 @@ from stiction.schemas.messages import MAX_BATCH_SAMPLES, SampleBatch
 
 
 def test_exported_json_schemas_are_current():
-    """Run ``python -m schemas.export`` after changing a message model."""
+    """Run ``python -m stiction.schemas.export`` after changing a message model."""
     for name, text in schemas().items():
         assert (JSON_DIR / name).read_text() == text, name
 
