@@ -1,6 +1,6 @@
 """The JSON Schema of every message, exported beside the models for dashboards not written in Python.
 
-``python -m schemas.export`` rewrites ``schemas/json/``; a test checks the files are current.
+``python -m stiction.schemas.export`` rewrites ``schemas/json/``; a test checks the files are current.
 """
 
 from __future__ import annotations
