@@ -9,11 +9,14 @@ and the gain in fit is measured (``ident.diagnose``).  ``--json`` prints one obj
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 from functools import partial
 from pathlib import Path
 
 from stiction.commands import exports
 from stiction.schemas.errors import StictionError
+from stiction.status import Every
 
 NONE_NAMED = "none: the canonical loop explains the data within its noise"
 
@@ -65,16 +68,37 @@ def _plot(png: Path, record, d, report) -> Path:
     return plot_diagnosis(png, record, d, report)
 
 
+PROGRESS_EVERY_S = 10.0
+
+
+def progress_line(done: int, failed: int, path: str, samples: int, elapsed_s: float) -> str:
+    return (
+        f"diagnose: {done} window(s) done, {failed} file(s) failed, {elapsed_s:.0f} s; now {path} ({samples} samples)"
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     from stiction.ident.report import MIN_SAMPLES, diagnose_loop
 
     if args.max_causes < 0:
         raise StictionError(f"--max-causes {args.max_causes}: expected 0 or more")
     failed: list[str] = []
+    started, due, done = time.monotonic(), Every(PROGRESS_EVERY_S), 0
     for path, export in exports.windows(args, "diagnose", FIELDS, MIN_SAMPLES, failed):
+        if due():  # a folder of long records takes minutes: say where it is, on stderr (stdout stays the reports')
+            print(progress_line(done, len(failed), str(path), export.op.size, time.monotonic() - started),
+                  file=sys.stderr, flush=True)  # fmt: skip
+        done += 1
         try:
             report, record, d = diagnose_loop(
-                path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, None, args.max_causes,
+                path.stem,
+                export.op,
+                export.pv,
+                export.ts_s,
+                export.mv,
+                export.warnings,
+                None,
+                args.max_causes,
                 export.sp,
             )
         except StictionError as e:  # one bad file never stops the others

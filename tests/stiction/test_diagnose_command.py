@@ -61,3 +61,15 @@ def test_bad_files_are_named_in_one_line_and_the_others_answered(loops):
     assert "bad.csv: row 3, column 'op': 'x' is not a number" in errors[0]
     assert "short.csv: 30 samples, need at least 100" in errors[1]
     assert json.loads(done.stdout)["loop_id"] == "dt_no_mv"
+
+
+def test_a_long_run_says_where_it_is_on_stderr_and_the_reports_stay_on_stdout(loops, capsys, monkeypatch):
+    from stiction.commands import diagnose as command
+
+    monkeypatch.setattr(command, "PROGRESS_EVERY_S", 1e-9)  # every file, as every 10 s on a long run
+    files = [str(loops / name) for name in ("short.csv", "dt_no_mv.csv", "dt.csv")]
+    assert main(["diagnose", "--json", *files]) == 2
+    out, err = capsys.readouterr()
+    assert [json.loads(line)["cause"] for line in out.strip().splitlines()] == ["dead_time", "dead_time"]
+    progress = [line for line in err.splitlines() if "window(s) done" in line]
+    assert progress[-1].startswith("diagnose: 1 window(s) done, 1 file(s) failed") and "dt.csv" in progress[-1]
