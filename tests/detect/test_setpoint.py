@@ -23,6 +23,18 @@ def _flow_loop(fs_pct: float, seed: int, controller_gain: float, deadband_pct: f
                           load_pct=load_pct, sp_steps=STEPS)  # fmt: skip
 
 
+@pytest.fixture(scope="module", autouse=True)
+def _simulated_together():
+    """Every loop of this module simulated in one vectorised run (``_flow_loop`` then reads them)."""
+    from tests.detect.loops import slow_flow_loops
+
+    common = dict(fd_share=0.3, sp_steps=STEPS)
+    sticky = [dict(fs_pct=6.0, seed=s, controller_gain=g, **common) for s in range(3) for g in (0.2, 0.5)]
+    moving = [dict(fs_pct=0.0, seed=s, controller_gain=g, deadband_pct=d, load_pct=0.3, **common)
+              for s in range(3) for g in (0.2, 0.5) for d in (0.0, 1.0, 2.0)]  # fmt: skip
+    slow_flow_loops(sticky + moving)
+
+
 @pytest.fixture(scope="module")
 def detector():
     return Detector.load(DEFAULT_MODELS_DIR / DETECTOR_FILE)
@@ -45,10 +57,16 @@ def test_a_valve_stuck_through_a_setpoint_step_is_found_and_named(detector, cont
 
 @pytest.mark.parametrize("controller_gain", [0.2, 0.5])
 def test_a_moving_valve_follows_its_setpoint_steps_deadband_or_not(controller_gain):
-    for seed in range(3):
-        for deadband_pct in (0.0, 1.0, 2.0):
-            op, pv, sp, ts_s = _flow_loop(0.0, seed, controller_gain, deadband_pct, load_pct=0.3)
-            assert evidence(op, pv, ts_s, sp).stuck_step is None, (seed, deadband_pct)
+    from tests.detect.loops import slow_flow_loops
+
+    cases = [
+        dict(fs_pct=0.0, seed=seed, fd_share=0.3, controller_gain=controller_gain, deadband_pct=deadband_pct,
+             load_pct=0.3, sp_steps=STEPS)
+        for seed in range(3)
+        for deadband_pct in (0.0, 1.0, 2.0)
+    ]  # fmt: skip
+    for case, (op, pv, sp, ts_s) in zip(cases, slow_flow_loops(cases), strict=True):
+        assert evidence(op, pv, ts_s, sp).stuck_step is None, (case["seed"], case["deadband_pct"])
 
 
 def test_no_setpoint_record_or_a_cascades_moving_setpoint_speaks_for_nothing():

@@ -88,6 +88,10 @@ def _slow_loop(fs_pct: float, load_pct: float, seed: int):
 
 def test_a_valve_stuck_while_op_ramps_is_found_and_a_slow_load_followed_by_op_is_not(detector):
     from stiction.detect.verdict import STUCK_AT
+    from tests.detect.loops import slow_flow_loops
+
+    slow_flow_loops([dict(fs_pct=fs, seed=s, load_pct=load) for s in range(4) for fs, load in ((3.6, 0.0), (0.0, 1.0),
+                                                                                            (0.0, 2.0))])  # fmt: skip
 
     assert detector.stuck is not None and detector.stuck.probability >= STICTION_AT  # the test can call it alone
     for seed in range(4):
