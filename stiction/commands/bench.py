@@ -34,6 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--reference-loops", type=int, default=3, help="grid points run through the slow reference")
     s.add_argument("--repeats", type=int, default=3, help="grid timings; the median is reported")
     s.add_argument("--no-agreement", action="store_true", help="skip the interval-by-interval check (~25 s)")
+    s.add_argument(
+        "--duration-s", type=float, default=2000.0, help="simulated seconds of each loop (default 2000, the grid's)"
+    )
     s.add_argument("--json", action="store_true")
     t = sub.add_parser("throughput", help="replay publisher and agent processes on loopback: rates, latency, memory")
     t.add_argument("--loops", type=int, default=1000)
@@ -134,7 +137,9 @@ def _existing(paths: list[Path]) -> None:
 def _sim(args) -> None:
     from stiction.bench.sim_speed import bench_agreement, bench_sim, print_table
 
-    figures = _host(bench_sim(reference_loops=args.reference_loops, repeats=args.repeats))
+    if args.duration_s <= 0 or args.reference_loops < 1 or args.repeats < 1:
+        raise InputError("--duration-s, --reference-loops and --repeats must be positive")
+    figures = _host(bench_sim(reference_loops=args.reference_loops, duration_s=args.duration_s, repeats=args.repeats))
     figures |= {"repeats": args.repeats, "reference_loops": args.reference_loops}
     if not args.no_agreement:
         figures["agreement"] = bench_agreement()

@@ -162,10 +162,14 @@ def test_bad_flags_and_paths(capsys, argv, expected):
     _one_line_error(capsys, argv, expected)
 
 
-def test_bench_json_prints_one_object(capsys):
-    argv = ["bench", "sim", "--reference-loops", "1", "--repeats", "1", "--no-agreement", "--json"]
+def test_bench_json_prints_one_object_and_the_text_its_table(capsys):
+    argv = ["bench", "sim", "--reference-loops", "1", "--repeats", "1", "--no-agreement", "--duration-s", "200"]
+    assert main([*argv, "--json"]) == 0
+    figures = json.loads(capsys.readouterr().out)
+    assert isinstance(figures, dict) and figures["duration_s"] == 200 and figures["host"]["cpu"]
     assert main(argv) == 0
-    assert isinstance(json.loads(capsys.readouterr().out), dict)
+    text = capsys.readouterr().out
+    assert "fast simulator" in text and "ODE reference" in text and "speedup" in text
 
 
 def test_the_demo_table_says_how_many_loops_it_leaves_out():
