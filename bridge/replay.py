@@ -1,4 +1,5 @@
-"""Historian exports replayed as streams: which samples of which loop are due after how long (pure).
+"""Historian exports replayed as streams: the exports read into tracks (``read_tracks``), and which
+samples of which loop are due after how long (``Schedule``, pure).
 
 Every export becomes one loop (its id from the file name), all starting together; after
 ``elapsed_s`` of wall clock at ``speed`` times real time, a loop has sent every sample up to
@@ -15,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from stiction.bridge.historian import Export, expand_paths, read_export
+from stiction.schemas.errors import InputError, StictionError
 from stiction.schemas.messages import MAX_BATCH_SAMPLES
 
 _NOT_IN_ID = re.compile(r"[^A-Za-z0-9_.:=+#-]")
@@ -54,7 +57,7 @@ def loop_ids(paths: Sequence[Path]) -> list[str]:
     return out
 
 
-def track(loop_id: str, export, process: str | None = None) -> Track:
+def track(loop_id: str, export: Export, process: str | None = None) -> Track:
     t0 = float(export.t_s[0]) if export.t_s is not None and len(export.t_s) else 0.0
     return Track(
         loop_id, export.ts_s, t0, export.op, export.pv, export.sp, export.mv, export.mode, process, str(export.path)
@@ -123,3 +126,22 @@ class Schedule:
                 self.samples_published += hi - lo
             self.sent[i] = max(self.sent[i], upto)
         return out
+
+
+def read_tracks(
+    paths: Sequence[Path | str], ts_s: float | None, process: str | None, min_samples: int
+) -> tuple[list[Track], list[tuple[Path, StictionError]]]:
+    """One track per readable export of ``paths`` (files or folders), in order; each unreadable one
+    with its error (one loop's bad file never stops the others).  ``min_samples``: fewer samples
+    than this is an error (the agent could never report such a loop)."""
+    files = expand_paths(paths)
+    tracks, failed = [], []
+    for path, loop_id in zip(files, loop_ids(files), strict=True):
+        try:
+            export = read_export(path, ts_s)
+            if export.op.size < min_samples:
+                raise InputError(f"{path}: {export.op.size} samples, need at least {min_samples}")
+            tracks.append(track(loop_id, export, process))
+        except StictionError as e:
+            failed.append((path, e))
+    return tracks, failed

@@ -18,7 +18,7 @@ from stiction import zenoh_config
 from stiction.commands.exports import report_error
 from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
 from stiction.schemas import keys
-from stiction.schemas.errors import InputError, StictionError
+from stiction.schemas.errors import InputError
 
 FIELDS = ("op", "pv", "t", "sp", "mv", "mode")
 
@@ -35,22 +35,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
-    """One track per readable export; each unreadable one named on one line (and returned)."""
-    from stiction.bridge.historian import expand_paths, read_export
-    from stiction.bridge.replay import loop_ids, track
+    """One track per readable export (``bridge.replay.read_tracks``); each unreadable one named on
+    one line (and returned)."""
+    from stiction.bridge.replay import read_tracks as read
     from stiction.quantify.window import MIN_SAMPLES
 
-    files = expand_paths(paths)
-    tracks, failed = [], []
-    for path, loop_id in zip(files, loop_ids(files), strict=True):
-        try:
-            export = read_export(path, ts_s)
-            if export.op.size < MIN_SAMPLES:  # the agent could never report it
-                raise InputError(f"{path}: {export.op.size} samples, need at least {MIN_SAMPLES}")
-            tracks.append(track(loop_id, export, process))
-        except StictionError as e:
-            failed.append(report_error(command, path, e))
-    return tracks, failed
+    tracks, errors = read(paths, ts_s, process, MIN_SAMPLES)
+    return tracks, [report_error(command, path, e) for path, e in errors]
 
 
 def publish(schedule, out, stop: threading.Event, rate_hz: float, status_every_s: float = 0.0):

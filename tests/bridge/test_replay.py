@@ -71,3 +71,17 @@ def test_stagger_groups_cover_every_loop_once_and_step_the_interval():
     groups = stagger_groups(1000, 5.0)
     assert len(groups) == 100 and sorted(np.concatenate(groups).tolist()) == list(range(1000))
     assert len(stagger_groups(3, 5.0)) == 3 and len(stagger_groups(10, 0.01)) == 1
+
+
+def test_the_exports_are_read_into_tracks_and_a_bad_or_short_one_is_named_with_its_error(tmp_path):
+    from stiction.bridge.replay import read_tracks
+
+    rows = [f"{k},{50 + k % 7},{40 + k % 5}\n" for k in range(300)]
+    (tmp_path / "FIC101.csv").write_text("t,op,pv\n" + "".join(rows))
+    (tmp_path / "bad.csv").write_text("t,op,pv\n0,1,2\n1,x,2\n")
+    (tmp_path / "short.csv").write_text("t,op,pv\n" + "".join(rows[:200]))
+    tracks, failed = read_tracks([tmp_path], None, "level", min_samples=250)
+    assert [t.loop_id for t in tracks] == ["FIC101"] and tracks[0].op.size == 300 and tracks[0].process == "level"
+    errors = {p.name: str(e) for p, e in failed}
+    assert set(errors) == {"bad.csv", "short.csv"}
+    assert "'x' is not a number" in errors["bad.csv"] and "need at least 250" in errors["short.csv"]
