@@ -95,6 +95,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     t.add_argument("--loops", type=int, default=20, help="simulated loops per cause in each family")
     t.add_argument("--seed", type=int, default=2026)
+    t.add_argument(
+        "--bands",
+        choices=("plant", "thesis"),
+        default="plant",
+        help="the held-out sticky valves' bands: plant-scale (S 0.5-10 %% of span) or the thesis's (S 5-48 %%)",
+    )
     t.add_argument("--json", action="store_true")
     z = sub.add_parser("sizing", help="S and J on simulated plant-like sticky loops, as quantify reports them")
     z.add_argument("--loops", type=int, default=60, help="simulated plant-like loops per class (the sticky ones run)")
@@ -160,7 +166,8 @@ def _detect(args) -> None:
     _existing(args.measured)
     if args.loops < 1:
         raise InputError(f"--loops {args.loops}: need at least 1")
-    _emit(args, _host(bench_detect(args.measured, n_per_class=args.loops, seed=args.seed)), print_table)
+    fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands)
+    _emit(args, _host(fig), print_table)
 
 
 def _measured(args) -> None:

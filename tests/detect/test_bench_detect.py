@@ -6,7 +6,7 @@ from stiction.sim.plant_families import FAMILIES
 
 def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_published_tests(capsys, plant_dir):
     fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2)
-    assert set(fig["families"]) == set(FAMILIES)
+    assert set(fig["families"]) == set(FAMILIES) and fig["bands"] == "plant"
     for row in fig["families"].values():
         for m in METHODS:
             assert 0.0 <= row[m]["specificity"] <= 1.0 and 0.0 <= row[m]["balanced"] <= 1.0
@@ -19,3 +19,4 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
+    assert "judged on plant-scale bands" in out

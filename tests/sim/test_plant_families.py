@@ -1,0 +1,54 @@
+"""The families' sticky valves at the two band scales: the same loops but for their bands, and the
+plant-scale bands are the gaps their stems break at."""
+
+import numpy as np
+import pytest
+
+from stiction.sim.loop import build_batch, run_batch
+from stiction.sim.plant_families import FAULTS, PLANT_BAND_PCT, family_loops
+
+
+def test_plant_scale_bands_are_drawn_over_the_plant_range_and_the_thesis_scale_is_wider():
+    plant = [loop for loop in family_loops(8, 5, bands="plant") if loop.cause in ("stick_slip", "he")]
+    thesis = [loop for loop in family_loops(8, 5, bands="thesis") if loop.cause in ("stick_slip", "he")]
+    s_plant = np.array([loop.s_pct for loop in plant])
+    s_thesis = np.array([loop.s_pct for loop in thesis])
+    assert np.all((s_plant >= PLANT_BAND_PCT[0]) & (s_plant <= PLANT_BAND_PCT[1]))
+    assert np.median(s_plant) < 0.5 * np.median(s_thesis) and s_thesis.min() >= 4.0
+    assert all(0 < loop.j_pct < loop.s_pct for loop in plant)
+
+
+def test_both_band_scales_give_the_same_loops_but_for_the_valves_bands():
+    plant, thesis = family_loops(3, 9, bands="plant"), family_loops(3, 9, bands="thesis")
+    assert [(a.family, a.cause) for a in plant] == [(b.family, b.cause) for b in thesis]
+    for a, b in zip(plant, thesis, strict=True):
+        assert a.spec.process == b.spec.process and a.spec.seed == b.spec.seed and a.sp_steps == b.sp_steps
+        assert (a.noise_pct, a.load_pct, a.load_period_s) == (b.noise_pct, b.load_pct, b.load_period_s)
+        if a.cause not in FAULTS:
+            assert a.s_pct == b.s_pct == 0.0
+
+
+def test_a_plant_scale_valve_breaks_away_at_half_its_band_and_slip():
+    """The physical valve's stem breaks away when OP is (S + J)/2 from it: the bands drawn in % of span
+    reach the valve as the friction that makes them."""
+    loops = [loop for loop in family_loops(4, 13, bands="plant") if loop.cause == "stick_slip"]
+    w = np.zeros((len(loops), 3000))
+    op, _, mv = run_batch(build_batch([loop.spec for loop in loops]), w, np.zeros_like(w))
+    checked = 0
+    for i, loop in enumerate(loops):
+        moving = np.abs(np.diff(mv[i])) > 1e-6
+        breaks = np.flatnonzero(moving[1:] & ~moving[:-1]) + 1
+        if breaks.size < 3:  # a slow loop that did not cycle in 3000 s
+            continue
+        gap = np.median(np.abs(op[i, breaks] - mv[i, breaks]))
+        static = (loop.s_pct + loop.j_pct) / 2
+        # the stem is seen to move a sample after OP passed the break-away point: up to one OP step late
+        late = np.median(np.abs(op[i, breaks] - op[i, breaks - 1]))
+        assert 0.97 * static <= gap <= 1.03 * static + late, (loop.family, static, gap, late)
+        checked += 1
+    assert checked >= len(loops) // 2
+
+
+def test_an_unknown_band_scale_is_named():
+    with pytest.raises(ValueError, match="bands 'huge'"):
+        family_loops(1, 1, bands="huge")
