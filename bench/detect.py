@@ -27,6 +27,8 @@ import numpy as np
 from stiction.detect.training import SIM_SEED
 
 METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")
+BAND_BINS_PCT = ((0.0, 1.0), (1.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, 100.0))
+"""Bins of the band S (% of span, deadband included) by which the windows that show a fault are counted."""
 
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
@@ -115,6 +117,13 @@ def bench_detect(
         for m in [np.array([r[0].cause == cause for r in rows])]
     }
 
+    band, ours = np.array([r[0].s_pct for r in rows]), np.array([c["ours"] for c in calls])
+    out["by_band"] = {
+        f"{lo:g}-{hi:g}": {"show_fault": int(np.sum(m)), "called": float(np.mean(ours[m])) if m.any() else None}
+        for lo, hi in BAND_BINS_PCT
+        for m in [truth & (band >= lo) & (band < hi)]
+    }
+
     measured_rows = [
         (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
         for tag, sticky, e in labelled_exports(measured)
@@ -169,6 +178,8 @@ def print_table(fig: dict) -> None:
     print("by cause (held out): " + "; ".join(
         f"{c} {100 * r['called']:.0f} % called ({100 * r['show_fault']:.0f} % show a fault)"
         for c, r in fig["by_cause"].items()))  # fmt: skip
+    bands = [f"{b} {100 * r['called']:.0f} % of {r['show_fault']}" for b, r in fig["by_band"].items() if r["show_fault"]]  # noqa: E501
+    print("windows that show a fault, called stiction, by band S (% of span): " + "; ".join(bands))
     print(f"evidence per window: {1000 * fig['seconds_per_window']:.1f} ms (with the simulation)")
     m = fig.get("measured")
     if m:

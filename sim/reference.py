@@ -73,7 +73,9 @@ def reference_interval(
         direction = np.sign(s[1]) if abs(s[1]) > DELTA else np.sign(force(s[0]))
 
         def crossing(t, s, direction=direction):
-            return direction * s[1]
+            # at |v| = DELTA, not 0: below it the moving rhs switches to the breakaway law, and a stem
+            # whose force is within fs chatters on that edge (scipy 1.17's Radau gives up there)
+            return direction * s[1] - DELTA
 
         crossing.terminal, crossing.direction = True, -1
         sol = solve_ivp(moving_rhs, (t, ts_s), s, method="Radau", rtol=1e-8, atol=1e-11, events=crossing)

@@ -11,6 +11,10 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
         for m in METHODS:
             assert 0.0 <= row[m]["specificity"] <= 1.0 and 0.0 <= row[m]["balanced"] <= 1.0
         assert 0.0 <= row["cannot_tell"] <= 1.0 and 0 <= row["show_fault"] <= row["n"]
+    shown = [r for r in fig["by_band"].values() if r["show_fault"]]
+    faults = sum(r["show_fault"] for r in fig["families"].values())
+    assert sum(r["show_fault"] for r in fig["by_band"].values()) == faults
+    assert shown and all(0.0 <= r["called"] <= 1.0 for r in shown)
     m = fig["measured"]
     assert m["windows"] == 60 and m["sticky"] == 27
     for key in METHODS:
@@ -19,4 +23,4 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
-    assert "judged on plant-scale bands" in out
+    assert "judged on plant-scale bands" in out and "by band S" in out
