@@ -85,7 +85,7 @@ def bench_detect(
     from stiction.sim.plant_families import FAMILIES
 
     t0 = time.perf_counter()
-    x_train, classes_train, stuck_train, family_train = training.simulated_set(train_per_class, SIM_SEED)
+    sim = training.simulated_set(train_per_class, SIM_SEED)
     out: dict = {"bands": bands, "families": {}, "measured": {}}
 
     t1 = time.perf_counter()
@@ -95,19 +95,23 @@ def bench_detect(
     truth = np.array([r[1].shows_fault for r in rows])
     x = np.nan_to_num(np.array([r[2].vector for r in rows]))
     stuck = np.array([r[2].stuck for r in rows])
+    osc = np.array([r[2].oscillation.oscillating for r in rows])
     p = np.zeros(len(rows))
     for f in FAMILIES:
-        keep = [i for i, g in enumerate(family_train) if g != f]
-        d = training.train(x_train[keep], [classes_train[i] for i in keep], stuck=stuck_train[keep])
+        d = training.train(sim.subset(sim.family != f))
         held = family == f
-        p[held] = d.stiction_probability(x[held], stuck[held])
+        p[held] = d.stiction_probability(x[held], stuck[held], osc[held])
     calls = [_calls(r[2], p[i], r[3]) for i, r in enumerate(rows)]
+    calls_ours = np.array([c["ours"] for c in calls])
     unsettled = (p >= LEANS_AT) & (p < STICTION_AT)
     for f in FAMILIES:
         held = family == f
         row = {m: _rates(np.array([c[m] for c, h in zip(calls, held, strict=True) if h]), truth[held]) for m in METHODS}
         settled = held & ~unsettled
         row["ours_settled"] = _rates(p[settled] >= STICTION_AT, truth[settled])
+        cycling = held & osc  # the limit cycles: stiction against an external cycle or tuning
+        row["ours_oscillating"] = _rates(calls_ours[cycling], truth[cycling]) | {
+            "n": int(cycling.sum()), "show_fault": int(truth[cycling].sum())}  # fmt: skip
         row["cannot_tell"] = float(np.mean(unsettled[held]))
         row["n"], row["show_fault"] = int(held.sum()), int(truth[held].sum())
         out["families"][f] = row
@@ -117,9 +121,9 @@ def bench_detect(
         for m in [np.array([r[0].cause == cause for r in rows])]
     }
 
-    band, ours = np.array([r[0].s_pct for r in rows]), np.array([c["ours"] for c in calls])
+    band = np.array([r[0].s_pct for r in rows])
     out["by_band"] = {
-        f"{lo:g}-{hi:g}": {"show_fault": int(np.sum(m)), "called": float(np.mean(ours[m])) if m.any() else None}
+        f"{lo:g}-{hi:g}": {"show_fault": int(np.sum(m)), "called": float(np.mean(calls_ours[m])) if m.any() else None}
         for lo, hi in BAND_BINS_PCT
         for m in [truth & (band >= lo) & (band < hi)]
     }
@@ -132,16 +136,17 @@ def bench_detect(
         tags = [r[0] for r in measured_rows]
         xm = np.nan_to_num(np.array([r[2].vector for r in measured_rows]))
         stuck_m = np.array([r[2].stuck for r in measured_rows])
+        osc_m = np.array([r[2].oscillation.oscillating for r in measured_rows])
         sticky = np.array([r[1] for r in measured_rows])
         p_cv = np.zeros(len(measured_rows))
         for tag in sorted(set(tags)):
             keep = [i for i, t in enumerate(tags) if t != tag]
             held = [i for i, t in enumerate(tags) if t == tag]
-            d = training.train(x_train, classes_train, xm[keep], list(sticky[keep]), [tags[i] for i in keep],
-                               stuck=stuck_train)  # fmt: skip
-            p_cv[held] = d.stiction_probability(xm[held], stuck_m[held])
-        simulation_only = training.train(x_train, classes_train, stuck=stuck_train)
-        p_sim = simulation_only.stiction_probability(xm, stuck_m)
+            d = training.train(sim, xm[keep], list(sticky[keep]), [tags[i] for i in keep],
+                               measured_oscillating=osc_m[keep])  # fmt: skip
+            p_cv[held] = d.stiction_probability(xm[held], stuck_m[held], osc_m[held])
+        simulation_only = training.train(sim)
+        p_sim = simulation_only.stiction_probability(xm, stuck_m, osc_m)
         calls = [_calls(r[2], p_cv[i], r[3]) for i, r in enumerate(measured_rows)]
         calls_sim = np.array([_calls(r[2], p_sim[i], r[3])["ours"] for i, r in enumerate(measured_rows)])
         readable = ~np.array([r[3] for r in measured_rows])
@@ -172,6 +177,10 @@ def print_table(fig: dict) -> None:
             f"{row[m]['sensitivity']:>7.2f}/{row[m]['specificity']:.2f} {row[m]['balanced']:.2f}" for m in METHODS
         )
         print(f"{f:10s}{row['n']:5d}{row['show_fault']:6d}{cells}{100 * row['cannot_tell']:>11.0f} %")
+    cycling = [f"{f} {r['ours_oscillating']['sensitivity']:.2f}/{r['ours_oscillating']['specificity']:.2f} "
+               f"({r['ours_oscillating']['show_fault']} of {r['ours_oscillating']['n']} show a fault)"
+               for f, r in fig["families"].items() if r["ours_oscillating"]["n"]]  # fmt: skip
+    print("ours on the windows that oscillate regularly (sensitivity/specificity): " + ", ".join(cycling))
     settled = {f: r["ours_settled"]["balanced"] for f, r in fig["families"].items()}
     print(f"ours, the windows it settles (p below {LEANS_AT} or from {STICTION_AT}): balanced "
           + ", ".join(f"{f} {v:.2f}" for f, v in settled.items()))  # fmt: skip

@@ -8,6 +8,8 @@ with or without a slip: backlash counts); otherwise it is the look-alike it was 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from stiction.detect.features import evidence
@@ -29,27 +31,54 @@ LOOK_ALIKE_CLASS = {
 OTHERS = ("external_oscillation", "tuning", "quantization", "noise")
 DETECTOR_FILE = "detector.json"
 SIM_SEED = 7
+"""Offset of the detector's simulated training seed; ``bench detect`` evaluates on other seeds."""
 N_PER_CAUSE = 20
-"""Family loops of each cause in each family the shipped detector is trained on (880 in all)."""
+"""Family loops of each cause in each family and band scale the shipped detector is trained on (880
+at each scale)."""
 THESIS_SHARE = 3
 """Canonical sticky loops per family cause, noisy and noise-free each (120 beside the 880)."""
-"""Offset of the detector's simulated training seed; ``bench detect`` evaluates on other seeds."""
+PLANT_SEED_OFFSET = 3
+"""The plant-scale family loops are drawn from the training seed plus this (other loops than the
+thesis-scale ones, not the same loops with smaller bands)."""
 MEASURED_WEIGHT = 5.0
 """Weight of one measured tag (split over its windows) against one simulated loop."""
 
 
-def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMILIES):
-    """Feature vectors, classes and stuck-valve statistics (``Evidence.stuck``, [n, 2]) of the family
-    loops (``n_per_cause`` of every cause in every family) and of ``2 * THESIS_SHARE * n_per_cause``
-    canonical (thesis) sticky loops, half of them noise-free (the thesis's own loop is recognised as
-    sticky without flags); and each row's family (``"thesis"`` for those)."""
-    loops = family_loops(n_per_cause, seed, families)
-    evs, classes, family = [], [], []
-    for loop, rec in zip(loops, simulate_families(loops), strict=True):
-        if stable(rec):
-            evs.append(evidence(rec.op, rec.pv, rec.ts_s, rec.sp))
-            classes.append("stiction" if rec.shows_fault else LOOK_ALIKE_CLASS.get(loop.cause, "noise"))
-            family.append(loop.family)
+@dataclass(frozen=True)
+class SimulatedSet:
+    """The detector's simulated windows: feature vectors [n, F], classes, stuck-valve statistics
+    (``Evidence.stuck``, [n, 2]), each row's family (``"thesis"`` for the canonical loops), whether
+    it oscillates regularly, and the scale of its sticky valves' bands (``sim.plant_families.BANDS``;
+    ``"thesis"`` for the canonical loops)."""
+
+    x: np.ndarray
+    classes: list[str]
+    stuck: np.ndarray
+    family: np.ndarray
+    oscillating: np.ndarray
+    bands: np.ndarray
+
+    def subset(self, keep: np.ndarray) -> SimulatedSet:
+        keep = np.asarray(keep, bool)
+        rows = np.flatnonzero(keep)
+        return SimulatedSet(self.x[keep], [self.classes[i] for i in rows], self.stuck[keep], self.family[keep],
+                            self.oscillating[keep], self.bands[keep])  # fmt: skip
+
+
+def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMILIES) -> SimulatedSet:
+    """The family loops (``n_per_cause`` of every cause in every family) at the thesis's bands (seed
+    ``seed``) and at plant scale (seed ``seed + PLANT_SEED_OFFSET``), and ``2 * THESIS_SHARE *
+    n_per_cause`` canonical (thesis) sticky loops, half of them noise-free (the thesis's own loop is
+    recognised as sticky without flags)."""
+    evs, classes, family, bands = [], [], [], []
+    for scale, scale_seed in (("thesis", seed), ("plant", seed + PLANT_SEED_OFFSET)):
+        loops = family_loops(n_per_cause, scale_seed, families, bands=scale)
+        for loop, rec in zip(loops, simulate_families(loops), strict=True):
+            if stable(rec):
+                evs.append(evidence(rec.op, rec.pv, rec.ts_s, rec.sp))
+                classes.append("stiction" if rec.shows_fault else LOOK_ALIKE_CLASS.get(loop.cause, "noise"))
+                family.append(loop.family)
+                bands.append(scale)
     n_thesis = THESIS_SHARE * n_per_cause
     canonical = random_loops(n_thesis, seed + 1) + random_loops(n_thesis, seed + 2, noisy=False)
     thesis = simulate(canonical).kept()
@@ -57,35 +86,53 @@ def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMIL
         evs.append(evidence(thesis.op[i], thesis.pv[i], 1.0, thesis.sp[i]))
         classes.append("stiction")
         family.append("thesis")
+        bands.append("thesis")
     x = np.nan_to_num(np.array([e.vector for e in evs]))
-    return x, classes, np.array([e.stuck for e in evs]), family
+    return SimulatedSet(x, classes, np.array([e.stuck for e in evs]), np.array(family),
+                        np.array([e.oscillation.oscillating for e in evs]), np.array(bands))  # fmt: skip
+
+
+def _balanced(sticky: np.ndarray) -> np.ndarray:
+    """Sample weights that give the two classes equal weight in all."""
+    share = float(np.mean(sticky)) if sticky.size else 0.5
+    if share in (0.0, 1.0):
+        return np.ones(sticky.size)
+    return np.where(sticky, 0.5 / share, 0.5 / (1 - share))
 
 
 def train(
-    x: np.ndarray,
-    causes: list[str],
+    sim: SimulatedSet,
     measured_x: np.ndarray | None = None,
     measured_sticky: list[bool] | None = None,
     measured_tags: list[str] | None = None,
     trained_on: str = "",
-    stuck: np.ndarray | None = None,
+    measured_oscillating: np.ndarray | None = None,
 ) -> Detector:
-    """The stiction model on everything given; the cause model on the simulated look-alikes; the
-    stuck-valve rules (``stuck``: the simulated windows' ``Evidence.stuck``) on the simulated windows only."""
-    labels = ["stiction" if c == "stiction" else "other" for c in causes]
-    weights = np.ones(len(labels))
-    features = x
-    if measured_x is not None and len(measured_x):
-        tags = list(measured_tags or range(len(measured_x)))
-        count = {t: tags.count(t) for t in tags}
-        features = np.vstack([x, np.nan_to_num(measured_x)])
-        labels += ["stiction" if s else "other" for s in measured_sticky]
-        weights = np.concatenate([weights, [MEASURED_WEIGHT / count[t] for t in tags]])
-    stiction = fit_logistic(features, labels, ("other", "stiction"), weights)
-    others = [i for i, c in enumerate(causes) if c != "stiction"]
-    cause = fit_logistic(x[others], [causes[i] for i in others], OTHERS)
-    ramp = step = None
-    if stuck is not None:
-        stuck = np.asarray(stuck, float).reshape(-1, 2)
-        ramp, step = fit_stuck_rule(stuck[:, 0], causes), fit_stuck_rule(stuck[:, 1], causes, STEP_AT)
-    return Detector(stiction, cause, trained_on, ramp, step)
+    """The stiction model on the thesis-scale windows and the measured ones; the cycle model on every
+    window that oscillates regularly (both band scales, the measured ones that do), the classes
+    weighed equally; the cause model on the thesis-scale look-alikes; the stuck-valve rules on the
+    simulated windows only.  Measured windows weigh ``MEASURED_WEIGHT`` a tag."""
+    sticky = np.array([c == "stiction" for c in sim.classes])
+    general = sim.bands == "thesis"
+    m_x = np.zeros((0, sim.x.shape[1])) if measured_x is None or not len(measured_x) else np.nan_to_num(measured_x)
+    m_sticky = np.array(measured_sticky if len(m_x) else [], bool)
+    tags = list(measured_tags or range(len(m_x)))
+    m_w = np.array([MEASURED_WEIGHT / tags.count(t) for t in tags]) if len(m_x) else np.zeros(0)
+    m_osc = np.zeros(len(m_x), bool) if measured_oscillating is None else np.asarray(measured_oscillating, bool)
+
+    def labels(flags):
+        return ["stiction" if f else "other" for f in flags]
+
+    stiction = fit_logistic(np.vstack([sim.x[general], m_x]), labels(np.concatenate([sticky[general], m_sticky])),
+                            ("other", "stiction"), np.concatenate([np.ones(general.sum()), m_w]))  # fmt: skip
+    cycle = None
+    osc = sim.oscillating
+    if sticky[osc].any() and (~sticky[osc]).any():
+        w = np.concatenate([_balanced(sticky[osc]), m_w[m_osc]])
+        flags = np.concatenate([sticky[osc], m_sticky[m_osc]])
+        cycle = fit_logistic(np.vstack([sim.x[osc], m_x[m_osc]]), labels(flags), ("other", "stiction"), w)
+    others = [i for i, c in enumerate(sim.classes) if c != "stiction" and general[i]]
+    cause = fit_logistic(sim.x[others], [sim.classes[i] for i in others], OTHERS)
+    ramp = fit_stuck_rule(sim.stuck[general, 0], [c for c, g in zip(sim.classes, general, strict=True) if g])
+    step = fit_stuck_rule(sim.stuck[general, 1], [c for c, g in zip(sim.classes, general, strict=True) if g], STEP_AT)
+    return Detector(stiction, cause, trained_on, ramp, step, cycle)

@@ -143,11 +143,23 @@ class Detector:
     """The stuck-ramp test."""
     step: StuckRule | None = None
     """The stuck setpoint step test."""
+    cycle: Logistic | None = None
+    """Classes ("other", "stiction") for a window that oscillates regularly: trained on such windows
+    alone, the sticky valves' bands at the thesis's and at plant scale, the two classes weighed
+    equally.  Among regular cycles the question is the cycle's shape and phase, not whether there is
+    one; the model for every window, trained mostly on windows that do not cycle, called none of the
+    held-out level family's sticky limit cycles at plant-scale bands (``stiction bench detect``)."""
 
-    def stiction_probability(self, x: np.ndarray, stuck: np.ndarray | None = None) -> np.ndarray:
-        """The logistic model's probability, raised to a stuck-valve test's where that test speaks.
+    def stiction_probability(
+        self, x: np.ndarray, stuck: np.ndarray | None = None, oscillating: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The logistic model's probability (the cycle model's where ``oscillating`` [n] says the window
+        oscillates regularly), raised to a stuck-valve test's where that test speaks.
         ``stuck`` [n, 2]: each window's ``Evidence.stuck`` (stuck-ramp share, stuck step's travel share)."""
         p = self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
+        if oscillating is not None and self.cycle is not None and np.any(oscillating):
+            p_cycle = self.cycle.probabilities(x)[:, self.cycle.classes.index("stiction")]
+            p = np.where(np.asarray(oscillating, bool), p_cycle, p)
         if stuck is None:
             return p
         stuck = np.asarray(stuck, float).reshape(-1, 2)
@@ -167,6 +179,8 @@ class Detector:
             body["stuck_ramp"] = self.stuck.to_dict()
         if self.step is not None:
             body["stuck_step"] = self.step.to_dict()
+        if self.cycle is not None:
+            body["cycle"] = self.cycle.to_dict()
         Path(path).write_text(json.dumps(body, indent=1) + "\n")
 
     @classmethod
@@ -177,7 +191,8 @@ class Detector:
         rules = [body.get(k) for k in ("stuck_ramp", "stuck_step")]
         ramp, step = (StuckRule(float(r["at"]), float(r["probability"])) if r else None for r in rules)
         stiction, cause = Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"])
-        return cls(stiction, cause, body["trained_on"], ramp, step)
+        cycle = Logistic.from_dict(body["cycle"]) if "cycle" in body else None
+        return cls(stiction, cause, body["trained_on"], ramp, step, cycle)
 
 
 @dataclass(frozen=True)
@@ -211,7 +226,7 @@ def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Ve
     if blocking_problems:
         return Verdict("bad_data", None, None, "; ".join(blocking_problems))
     x = ev.vector[None, :]
-    p = float(detector.stiction_probability(x, ev.stuck[None, :])[0])
+    p = float(detector.stiction_probability(x, ev.stuck[None, :], np.array([ev.oscillation.oscillating]))[0])
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)
         reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "")

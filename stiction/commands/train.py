@@ -85,24 +85,28 @@ def train_detector(args: argparse.Namespace) -> int:
 
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
     n_per_cause = training.N_PER_CAUSE
-    x, causes, stuck, _ = training.simulated_set(n_per_cause, args.seed + training.SIM_SEED)
-    mx, sticky, tags = [], [], []
+    sim = training.simulated_set(n_per_cause, args.seed + training.SIM_SEED)
+    mx, sticky, tags, oscillating = [], [], [], []
     if args.measured is not None:
         if not args.measured.exists():
             raise InputError(f"--measured {args.measured}: no such folder")
         for tag, is_sticky, e in labelled_exports([args.measured]):
-            mx.append(evidence(e.op, e.pv, e.ts_s, e.sp).vector)
+            ev = evidence(e.op, e.pv, e.ts_s, e.sp)
+            mx.append(ev.vector)
+            oscillating.append(ev.oscillation.oscillating)
             sticky.append(is_sticky)
             tags.append(tag)
         if not mx:
             raise InputError(f"--measured {args.measured}: no labelled exports (a loops.json beside them)")
     trained_on = (
-        f"{n_per_cause} simulated loops per cause and family of sim.plant_families (seed "
-        f"{args.seed + training.SIM_SEED}), labelled by what each window shows, and "
+        f"{n_per_cause} simulated loops per cause and family of sim.plant_families at the thesis's bands (seed "
+        f"{args.seed + training.SIM_SEED}) and as many at plant-scale bands (seed "
+        f"{args.seed + training.SIM_SEED + training.PLANT_SEED_OFFSET}, the cycle model only), labelled by what "
+        "each window shows, and "
         f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free)"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
-    detector = training.train(x, causes, np.array(mx) if mx else None, sticky, tags, trained_on, stuck)
+    detector = training.train(sim, np.array(mx) if mx else None, sticky, tags, trained_on, np.array(oscillating, bool))
     models_dir.mkdir(parents=True, exist_ok=True)
     detector.save(models_dir / training.DETECTOR_FILE)
     print(f"detector written to {models_dir / training.DETECTOR_FILE}: {trained_on}")

@@ -23,3 +23,13 @@ def measured_evidence(plant_dir):
         return [evidence(e.op, e.pv, e.ts_s, e.sp) for e in map(read_export, sorted(plant_dir.glob(pattern)))]
 
     return of
+
+
+@pytest.fixture(scope="module")
+def detector():
+    """The shipped detector."""
+    from stiction.detect.training import DETECTOR_FILE
+    from stiction.detect.verdict import Detector
+    from stiction.quantify.predictor import DEFAULT_MODELS_DIR
+
+    return Detector.load(DEFAULT_MODELS_DIR / DETECTOR_FILE)

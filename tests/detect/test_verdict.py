@@ -4,15 +4,9 @@ import numpy as np
 import pytest
 
 from stiction.detect.features import evidence
-from stiction.detect.training import DETECTOR_FILE, SIM_SEED
+from stiction.detect.training import SIM_SEED
 from stiction.detect.verdict import STICTION_AT, Detector, decide, fit_logistic
-from stiction.quantify.predictor import DEFAULT_MODELS_DIR
 from stiction.sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
-
-
-@pytest.fixture(scope="module")
-def detector():
-    return Detector.load(DEFAULT_MODELS_DIR / DETECTOR_FILE)
 
 
 @pytest.fixture(scope="module")
@@ -153,7 +147,7 @@ def test_a_probability_short_of_the_verdict_is_said_to_lean_not_called_healthy(d
     for p in (0.3, 0.6, 0.9):  # a stiction model that says p whatever it sees
         logistic = replace(detector.stiction, weights=0 * detector.stiction.weights,
                            bias=np.array([0.0, np.log(p / (1 - p))]))  # fmt: skip
-        v = decide(replace(detector, stiction=logistic, stuck=None, step=None), ev, [])
+        v = decide(replace(detector, stiction=logistic, stuck=None, step=None, cycle=None), ev, [])
         assert v.stiction_probability == pytest.approx(p)
         assert (v.verdict == "stiction") == (p >= STICTION_AT)
         assert ("lean to stiction" in v.reason) == (LEANS_AT <= p < STICTION_AT)
