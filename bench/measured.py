@@ -10,17 +10,22 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import numpy as np
 
-def _diagnose_file(path: str) -> dict:
+
+def _diagnose_file(path: str) -> tuple[dict, float]:
+    """The diagnosis report of one export, and the CPU seconds it took (reading the file included)."""
     from stiction.bridge.historian import read_export
     from stiction.ident.report import diagnose_loop
 
+    started = time.process_time()
     export = read_export(path)
     report, _, _ = diagnose_loop(Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings)
-    return json.loads(report.model_dump_json())
+    return json.loads(report.model_dump_json()), time.process_time() - started
 
 
 def labels(folder: Path) -> dict[str, dict]:
@@ -51,15 +56,16 @@ def bench_measured(folders: list[Path], workers: int = 2) -> dict:
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[var] = "1"
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        reports = list(pool.map(_diagnose_file, files))
+        done = list(pool.map(_diagnose_file, files))
+    reports, seconds = [r for r, _ in done], [s for _, s in done]
     known = {}
     for f in folders:
         known.update(labels(f if f.is_dir() else f.parent))
     rows = []
-    for path, r in zip(files, reports, strict=True):
+    for path, r, cpu_s in zip(files, reports, seconds, strict=True):
         meta = known.get(Path(path).stem, {})
         rows.append({"file": path, "label": meta.get("label"), "tag": meta.get("tag"), "type": meta.get("loop_type"),
-                     "report": r})  # fmt: skip
+                     "report": r, "cpu_s": cpu_s})  # fmt: skip
     labelled = [row for row in rows if row["label"]]
     called = [(row["report"]["stiction_delta_criterion"] > 0, row["label"] == "stiction") for row in labelled]
     summary = {
@@ -72,6 +78,9 @@ def bench_measured(folders: list[Path], workers: int = 2) -> dict:
             "false_negative": sum(not c and t for c, t in called),
         },
         "causes": {},
+        "cpu_s_median": float(np.median(seconds)) if seconds else None,
+        "cpu_s_max": float(np.max(seconds)) if seconds else None,
+        "slowest": Path(files[int(np.argmax(seconds))]).name if seconds else None,
     }
     for row in rows:
         for c in row["report"]["causes"]:
@@ -115,3 +124,6 @@ def print_summary(figures: dict) -> None:
           f"{c['true_positive']} of {c['true_positive'] + c['false_negative']} labelled sticky, "
           f"{c['false_positive']} of {c['false_positive'] + c['true_negative']} labelled not")  # fmt: skip
     print("causes named: " + ", ".join(f"{k} {v}" for k, v in sorted(s["causes"].items(), key=lambda kv: -kv[1])))
+    if s.get("cpu_s_max") is not None:
+        print(f"CPU seconds a loop (reading and diagnosing, one core each): median {s['cpu_s_median']:.1f}, "
+              f"largest {s['cpu_s_max']:.1f} ({s['slowest']})")

@@ -1,0 +1,23 @@
+"""``stiction bench measured`` says what each loop cost to diagnose, and which was slowest."""
+
+from pathlib import Path
+
+import pytest
+
+from stiction.bench.measured import bench_measured, print_summary
+
+PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+
+
+def test_each_loop_carries_its_cpu_seconds_and_the_summary_names_the_slowest(capsys):
+    files = sorted(PLANT.glob("stic_2111FIC46002_*.csv"))[:1] + sorted(PLANT.glob("stic_2411FIC20102_*.csv"))[:1]
+    if len(files) < 2:
+        pytest.skip("measured plant data not here")
+    fig = bench_measured(files, workers=1)
+    seconds = [row["cpu_s"] for row in fig["rows"]]
+    assert len(seconds) == 2 and all(s > 0 for s in seconds)
+    s = fig["summary"]
+    assert s["cpu_s_max"] == max(seconds) and min(seconds) <= s["cpu_s_median"] <= max(seconds)
+    assert s["slowest"] == files[seconds.index(max(seconds))].name
+    print_summary(fig)
+    assert f"largest {max(seconds):.1f} ({s['slowest']})" in capsys.readouterr().out
