@@ -40,6 +40,11 @@ THESIS_SHARE = 3
 PLANT_SEED_OFFSET = 3
 """The plant-scale family loops are drawn from the training seed plus this (other loops than the
 thesis-scale ones, not the same loops with smaller bands)."""
+PLANT_SHARE = 2.5
+"""Plant-scale family loops per thesis-scale one: only the windows that cycle regularly (a fifth to a
+third of them) train the cycle model.  With 50 a cause instead of 20, on families of seed 3031 held
+out one at a time, the level family's sticky limit cycles were called 78 % instead of 62 % at the
+same specificity (0.95), flow 68 % instead of 73 % at 0.91 instead of 0.87."""
 MEASURED_WEIGHT = 5.0
 """Weight of one measured tag (split over its windows) against one simulated loop."""
 
@@ -67,12 +72,13 @@ class SimulatedSet:
 
 def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMILIES) -> SimulatedSet:
     """The family loops (``n_per_cause`` of every cause in every family) at the thesis's bands (seed
-    ``seed``) and at plant scale (seed ``seed + PLANT_SEED_OFFSET``), and ``2 * THESIS_SHARE *
-    n_per_cause`` canonical (thesis) sticky loops, half of them noise-free (the thesis's own loop is
-    recognised as sticky without flags)."""
+    ``seed``) and ``PLANT_SHARE`` times as many at plant scale (seed ``seed + PLANT_SEED_OFFSET``),
+    and ``2 * THESIS_SHARE * n_per_cause`` canonical (thesis) sticky loops, half of them noise-free
+    (the thesis's own loop is recognised as sticky without flags)."""
     evs, classes, family, bands = [], [], [], []
-    for scale, scale_seed in (("thesis", seed), ("plant", seed + PLANT_SEED_OFFSET)):
-        loops = family_loops(n_per_cause, scale_seed, families, bands=scale)
+    plant_per_cause = max(1, round(PLANT_SHARE * n_per_cause))
+    for scale, scale_seed, n in (("thesis", seed, n_per_cause), ("plant", seed + PLANT_SEED_OFFSET, plant_per_cause)):
+        loops = family_loops(n, scale_seed, families, bands=scale)
         for loop, rec in zip(loops, simulate_families(loops), strict=True):
             if stable(rec):
                 evs.append(evidence(rec.op, rec.pv, rec.ts_s, rec.sp))

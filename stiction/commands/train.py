@@ -100,7 +100,7 @@ def train_detector(args: argparse.Namespace) -> int:
             raise InputError(f"--measured {args.measured}: no labelled exports (a loops.json beside them)")
     trained_on = (
         f"{n_per_cause} simulated loops per cause and family of sim.plant_families at the thesis's bands (seed "
-        f"{args.seed + training.SIM_SEED}) and as many at plant-scale bands (seed "
+        f"{args.seed + training.SIM_SEED}) and {round(training.PLANT_SHARE * n_per_cause)} at plant-scale bands (seed "
         f"{args.seed + training.SIM_SEED + training.PLANT_SEED_OFFSET}, the cycle model only), labelled by what "
         "each window shows, and "
         f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free)"
