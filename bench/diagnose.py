@@ -112,12 +112,15 @@ def _pool(workers: int) -> ProcessPoolExecutor:
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
 
-def bench_diagnose(per_cause: int = 20, causes: list[str] | None = None, workers: int = 2, progress=None) -> dict:
+def bench_diagnose(
+    per_cause: int = 20, causes: list[str] | None = None, workers: int = 2, progress=None, draws: str = "catalogue"
+) -> dict:
+    """``draws``: the magnitudes' ranges (``sim.grid.DRAWS``: the catalogue's, or ``wide``, as plants have them)."""
     causes = causes or list(EFFECT_RANGES)
     out = {}
     with _pool(workers) as pool:
         for c in causes:
-            specs = effect_loops(c, per_cause, SEED + list(EFFECT_RANGES).index(c))
+            specs = effect_loops(c, per_cause, SEED + list(EFFECT_RANGES).index(c), draws=draws)
             rows = list(pool.map(_one, specs))
             out[c] = _summary(c, rows) | {"params": list(CATALOGUE.get(c, ()))}
             if progress:
@@ -126,6 +129,7 @@ def bench_diagnose(per_cause: int = 20, causes: list[str] | None = None, workers
     return {
         "per_cause": out,
         "loops_per_cause": per_cause,
+        "draws": draws,
         "overall": {
             "named_share_effects": float(np.mean([out[c]["named_share"] for c in effects])) if effects else None,
             "none_given_a_cause": 1 - out["none"]["named_share"] if "none" in out else None,
@@ -196,8 +200,9 @@ def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progre
     return out
 
 
-def print_header(per_cause: int) -> None:
-    print(f"diagnose on {per_cause} generated loops per cause (noise 1-4 % of PV RMS, OP/PV only)")
+def print_header(per_cause: int, draws: str = "catalogue") -> None:
+    ranges = "the catalogue's magnitudes" if draws == "catalogue" else "magnitudes drawn wide (WIDE_EFFECT_RANGES)"
+    print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only)")
     print(
         f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
         f"{'in 2se':>6s} {'s/loop':>6s}"

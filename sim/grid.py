@@ -98,22 +98,47 @@ EFFECT_RANGES: dict[str, dict[str, tuple[float, float]]] = {
 """Magnitudes of each catalogue cause in generated loops: large enough to matter, within the level loop's reach
 (its delay margin is about 6 s; lags past 10 s leave it lightly damped, spec/thesis-loop.md)."""
 
+WIDE_EFFECT_RANGES: dict[str, dict[str, tuple[float, float]]] = {
+    "none": {},
+    "dead_time": {"dead_time_s": (0.5, 5.5)},
+    "deadband": {"deadband_pct": (1.0, 12.0)},
+    "actuator_lag": {"actuator_tau_s": (0.5, 10.0)},
+    "sensor_lag": {"sensor_tau_s": (0.5, 10.0)},
+    "quantization": {"quantum_pct": (0.02, 0.3)},
+    "process_gain": {"gain_ratio": (1 / 3, 3.0)},
+    "external_oscillation": {"osc_period_s": (10.0, 500.0), "osc_amplitude_pct": (0.2, 4.0)},
+    "process_type": {"time_constant_s": (10.0, 500.0)},
+}
+"""The same causes drawn as a plant has them, not as the fit finds them easiest (``stiction bench diagnose
+--draws wide``): dead times from half a sample to just inside the delay margin, lags from half a sample to
+10 s (past 8 s the sticky level loop's cycle grows to OP swings over 100 % of span: no plant runs so), process
+gains a third to three times the nominal, external cycles from faster to far slower than the loop's own
+(10-500 s), quanta at and below the noise, self-regulating processes from ten to five hundred seconds.  The
+small ends are where naming is hardest: an effect near half a sample hides in the noise."""
+DRAWS = {"catalogue": EFFECT_RANGES, "wide": WIDE_EFFECT_RANGES}
 
-def effect_loops(cause: str, n: int, seed: int, noise: tuple[float, float] = (0.01, 0.04)) -> list[LoopSpec]:
-    """Canonical loops with one hidden effect of ``cause`` each, at random magnitudes, fs/fd and noise.
+
+def effect_loops(
+    cause: str, n: int, seed: int, noise: tuple[float, float] = (0.01, 0.04), draws: str = "catalogue"
+) -> list[LoopSpec]:
+    """Canonical loops with one hidden effect of ``cause`` each, at random magnitudes (over the ranges
+    ``DRAWS[draws]`` names), fs/fd and noise.
 
     The noise is white on PV at ``noise`` times its clean RMS (the controller sees it too).
     A process gain is drawn log-uniformly outside 0.8..1.25, so that there is an effect to find.
     """
+    if draws not in DRAWS:
+        raise ValueError(f"draws {draws!r}: one of {', '.join(DRAWS)}")
+    ranges = DRAWS[draws][cause]
     rng = np.random.default_rng(seed)
     specs = []
     for _ in range(n):
         fs = float(rng.uniform(15, 90))
         fd = float(fs * rng.uniform(0.1, 0.8))
         params = {}
-        for name, (lo, hi) in EFFECT_RANGES[cause].items():
+        for name, (lo, hi) in ranges.items():
             if name == "gain_ratio":
-                v = float(np.exp(rng.uniform(np.log(0.8), np.log(2.0))))
+                v = float(np.exp(rng.uniform(np.log(0.8), np.log(max(2.0, hi)))))
                 params[name] = v if rng.random() < 0.5 else 1.0 / v
                 params[name] = float(np.clip(params[name], lo, hi))
                 if 0.8 < params[name] < 1.25:

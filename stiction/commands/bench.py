@@ -78,6 +78,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     d.add_argument("--causes", nargs="+", metavar="CAUSE", help="only these causes (default: all, and none)")
     d.add_argument("--workers", type=int, default=2, help="processes (CPU seconds are per loop and core)")
     d.add_argument(
+        "--draws",
+        choices=("catalogue", "wide"),
+        default="catalogue",
+        help="magnitudes over the catalogue's ranges, or wider, as plants have them (sim.grid.WIDE_EFFECT_RANGES)",
+    )
+    d.add_argument(
         "--retrain",
         type=Path,
         metavar="DIR",
@@ -192,8 +198,9 @@ def _diagnose(args) -> None:
         raise InputError("--loops and --workers must be at least 1")
     text = not args.json
     if text:
-        diagnose.print_header(args.loops)
-    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=diagnose.print_row if text else None)
+        diagnose.print_header(args.loops, args.draws)
+    progress = diagnose.print_row if text else None
+    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=progress, draws=args.draws)
     if args.retrain:
         if text:
             diagnose.print_retrained_header()
