@@ -289,22 +289,19 @@ SEARCHED = (
 )
 
 
-ROUNDING_SHARE = 0.1
-"""Share of the remaining error the rounding must account for to be named."""
-
-
 def quantised(record: Record, current: Model, q: float) -> Model | None:
     """The record's lattice as a cause: the part of the model's error that the rounding itself adds.
 
     Stored values on a lattice of step q carry a rounding error of variance q^2/12 that no model of
-    the loop can remove.  The lattice is read from the values (``ident.lattice``); it is named when
-    its variance is at least ``ROUNDING_SHARE`` of the model's remaining error, and the extended
-    error is what remains once it is taken out.  Its criterion treats that variance as known noise.
+    the loop can remove.  The lattice is read from the values (``ident.lattice``): it is a fact of the
+    record however fine, and named so (a quantum below the noise explains little of the error, and
+    the candidate says how much); the extended error is what remains once it is taken out.  Its
+    criterion treats that variance as known noise.  None where the model has no error to explain.
     """
     error = current.error_pct(record)
-    rounding = q * q / 12.0
-    if error <= 0 or rounding < ROUNDING_SHARE * error**2:
+    if error <= 0:
         return None
+    rounding = min(q * q / 12.0, error**2)
     left = max(error**2 - rounding, 1e-12 * error**2)
     delta = record.n_fit * np.log(left / error**2) + np.log(record.n_fit)
     return Model(

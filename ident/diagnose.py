@@ -100,7 +100,7 @@ def _select(fitter: Fitter, start: Model, max_causes: int) -> tuple[Model, list[
     q = lattice.quantum(record.pv_pct)
     qm = quantised(record, current, q) if q is not None else None
     if qm is not None:
-        accepted = current.criterion - qm.criterion > MARGIN
+        accepted = True  # the values sit on the lattice: named whatever it explains (its gain says how much)
         if not steps:
             steps.append({})
         steps[-1]["quantization"] = Candidate(
@@ -149,7 +149,7 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     )
     if "quantization" not in candidates:
         q = lattice.quantum(record.pv_pct)
-        note = "PV sits on no lattice" if q is None else f"PV is stored in steps of {q:.3g} %: too fine to matter"
+        note = "PV sits on no lattice" if q is None else f"PV is stored in steps of {q:.3g} %: nothing left to explain"
         candidates["quantization"] = Candidate(
             "quantization", {} if q is None else {"quantum_pct": q}, None, None, None, note=note
         )

@@ -88,3 +88,14 @@ def test_a_deadband_before_a_sticky_valve_is_the_same_valve_with_a_wider_band():
     assert not d.candidates["deadband"].identifiable
     assert d.friction.fs_pct == pytest.approx(fs + widen, abs=1.5)
     assert d.friction.fd_pct == pytest.approx(fd + widen, abs=1.5)
+
+
+def test_a_quantum_below_the_noise_is_named_from_the_lattice_with_its_step():
+    """The lattice is a fact of the record however fine: a step of 0.03 % under noise of several times
+    that is named, with its step read exactly, and the friction read as without it."""
+    record = _record(Extensions(quantum_pct=0.03), 45.0, 10.0, noise=0.03)
+    assert np.std(np.diff(record.pv_pct)) > 3 * 0.03  # the noise's steps are larger than the quantum's
+    d = diagnose(record)
+    assert "quantization" in d.causes and d.candidates["quantization"].accepted
+    assert cause_parameters(d.extended)["quantum_pct"] == pytest.approx(0.03, rel=0.02)
+    assert d.friction.fs_pct == pytest.approx(45.0, abs=3.0) and d.friction.fd_pct == pytest.approx(10.0, abs=3.0)
