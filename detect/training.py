@@ -33,8 +33,8 @@ DETECTOR_FILE = "detector.json"
 SIM_SEED = 7
 """Offset of the detector's simulated training seed; ``bench detect`` evaluates on other seeds."""
 N_PER_CAUSE = 20
-"""Family loops of each cause in each family and band scale the shipped detector is trained on (880
-at each scale)."""
+"""Family loops of each cause in each family at the thesis's bands the shipped detector is trained on
+(880 in all); ``PLANT_SHARE`` times as many at plant-scale bands."""
 THESIS_SHARE = 3
 """Canonical sticky loops per family cause, noisy and noise-free each (120 beside the 880)."""
 PLANT_SEED_OFFSET = 3
