@@ -139,6 +139,7 @@ def train(
         cycle = fit_logistic(np.vstack([sim.x[osc], m_x[m_osc]]), labels(flags), ("other", "stiction"), w)
     others = [i for i, c in enumerate(sim.classes) if c != "stiction" and general[i]]
     cause = fit_logistic(sim.x[others], [sim.classes[i] for i in others], OTHERS)
-    ramp = fit_stuck_rule(sim.stuck[general, 0], [c for c, g in zip(sim.classes, general, strict=True) if g])
-    step = fit_stuck_rule(sim.stuck[general, 1], [c for c, g in zip(sim.classes, general, strict=True) if g], STEP_AT)
+    general_classes = [c for c, g in zip(sim.classes, general, strict=True) if g]
+    ramp = fit_stuck_rule(sim.stuck[general, 0], general_classes)
+    step = fit_stuck_rule(sim.stuck[general, 1], general_classes, STEP_AT)
     return Detector(stiction, cause, trained_on, ramp, step, cycle)
