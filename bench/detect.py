@@ -29,6 +29,9 @@ from stiction.detect.training import SIM_SEED
 METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")
 BAND_BINS_PCT = ((0.0, 1.0), (1.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, 100.0))
 """Bins of the band S (% of span, deadband included) by which the windows that show a fault are counted."""
+SLIP_NOISE_BINS = ((0.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, np.inf))
+"""Bins of the slip J over the measurement noise's standard deviation (both % of span): a slip under
+twice the noise is one the record barely shows."""
 
 
 def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
@@ -57,6 +60,14 @@ def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
     spec = float(np.mean(~called[~truth])) if (~truth).any() else float("nan")
     return {"sensitivity": sens, "specificity": spec, "balanced": float(np.nanmean([sens, spec])),
             "accuracy": float(np.mean(called == truth))}  # fmt: skip
+
+
+def _share_called(faults: np.ndarray, called: np.ndarray, cycling: np.ndarray) -> dict:
+    """How many windows ``faults`` picks, the share of them called stiction and the share that cycle."""
+    if not faults.any():
+        return {"show_fault": 0, "called": None, "cycling": None}
+    return {"show_fault": int(faults.sum()), "called": float(np.mean(called[faults])),
+            "cycling": float(np.mean(cycling[faults]))}  # fmt: skip
 
 
 def _family_set(n_per_cause: int, seed: int, bands: str):
@@ -122,11 +133,10 @@ def bench_detect(
     }
 
     band = np.array([r[0].s_pct for r in rows])
-    out["by_band"] = {
-        f"{lo:g}-{hi:g}": {"show_fault": int(np.sum(m)), "called": float(np.mean(calls_ours[m])) if m.any() else None}
-        for lo, hi in BAND_BINS_PCT
-        for m in [truth & (band >= lo) & (band < hi)]
-    }
+    slip_noise = np.array([r[0].j_pct / max(r[0].noise_pct, 1e-9) for r in rows])
+    for key, value, bins in (("by_band", band, BAND_BINS_PCT), ("by_slip_noise", slip_noise, SLIP_NOISE_BINS)):
+        out[key] = {f"{lo:g}-{hi:g}": _share_called(truth & (value >= lo) & (value < hi), calls_ours, osc)
+                    for lo, hi in bins}  # fmt: skip
 
     measured_rows = [
         (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
@@ -189,6 +199,9 @@ def print_table(fig: dict) -> None:
         for c, r in fig["by_cause"].items()))  # fmt: skip
     bands = [f"{b} {100 * r['called']:.0f} % of {r['show_fault']}" for b, r in fig["by_band"].items() if r["show_fault"]]  # noqa: E501
     print("windows that show a fault, called stiction, by band S (% of span): " + "; ".join(bands))
+    slips = [f"{b} {100 * r['called']:.0f} % of {r['show_fault']} ({100 * r['cycling']:.0f} % cycle)"
+             for b, r in fig["by_slip_noise"].items() if r["show_fault"]]  # fmt: skip
+    print("the same by slip J over the noise's standard deviation: " + "; ".join(slips))
     print(f"evidence per window: {1000 * fig['seconds_per_window']:.1f} ms (with the simulation)")
     m = fig.get("measured")
     if m:

@@ -14,6 +14,7 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     shown = [r for r in fig["by_band"].values() if r["show_fault"]]
     faults = sum(r["show_fault"] for r in fig["families"].values())
     assert sum(r["show_fault"] for r in fig["by_band"].values()) == faults
+    assert sum(r["show_fault"] for r in fig["by_slip_noise"].values()) == faults
     assert shown and all(0.0 <= r["called"] <= 1.0 for r in shown)
     m = fig["measured"]
     assert m["windows"] == 60 and m["sticky"] == 27
@@ -23,4 +24,4 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
-    assert "judged on plant-scale bands" in out and "by band S" in out
+    assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
