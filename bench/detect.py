@@ -197,8 +197,9 @@ def print_table(fig: dict) -> None:
     print("by cause (held out): " + "; ".join(
         f"{c} {100 * r['called']:.0f} % called ({100 * r['show_fault']:.0f} % show a fault)"
         for c, r in fig["by_cause"].items()))  # fmt: skip
-    bands = [f"{b} {100 * r['called']:.0f} % of {r['show_fault']}" for b, r in fig["by_band"].items() if r["show_fault"]]  # noqa: E501
-    print("windows that show a fault, called stiction, by band S (% of span): " + "; ".join(bands))
+    by_band = [f"{b} {100 * r['called']:.0f} % of {r['show_fault']}" for b, r in fig["by_band"].items()
+               if r["show_fault"]]  # fmt: skip
+    print("windows that show a fault, called stiction, by band S (% of span): " + "; ".join(by_band))
     slips = [f"{b} {100 * r['called']:.0f} % of {r['show_fault']} ({100 * r['cycling']:.0f} % cycle)"
              for b, r in fig["by_slip_noise"].items() if r["show_fault"]]  # fmt: skip
     print("the same by slip J over the noise's standard deviation: " + "; ".join(slips))

@@ -147,8 +147,8 @@ class Detector:
     """Classes ("other", "stiction") for a window that oscillates regularly: trained on such windows
     alone, the sticky valves' bands at the thesis's and at plant scale, the two classes weighed
     equally.  Among regular cycles the question is the cycle's shape and phase, not whether there is
-    one; the model for every window, trained mostly on windows that do not cycle, called none of the
-    held-out level family's sticky limit cycles at plant-scale bands (``stiction bench detect``)."""
+    one; the model for every window, trained mostly on windows that do not cycle, called a quarter of
+    the held-out level family's sticky limit cycles at plant-scale bands (``stiction bench detect``)."""
 
     def stiction_probability(
         self, x: np.ndarray, stuck: np.ndarray | None = None, oscillating: np.ndarray | None = None

@@ -301,8 +301,7 @@ def quantised(record: Record, current: Model, q: float) -> Model | None:
     error = current.error_pct(record)
     if error <= 0:
         return None
-    rounding = min(q * q / 12.0, error**2)
-    left = max(error**2 - rounding, 1e-12 * error**2)
+    left = max(error**2 - q * q / 12.0, 1e-12 * error**2)
     delta = record.n_fit * np.log(left / error**2) + np.log(record.n_fit)
     return Model(
         current.hypothesis,

@@ -99,8 +99,7 @@ def _select(fitter: Fitter, start: Model, max_causes: int) -> tuple[Model, list[
         remaining = [m for m in remaining if not named & set(names(m))]
     q = lattice.quantum(record.pv_pct)
     qm = quantised(record, current, q) if q is not None else None
-    if qm is not None:
-        accepted = True  # the values sit on the lattice: named whatever it explains (its gain says how much)
+    if qm is not None:  # the values sit on the lattice: named whatever it explains (its gain says how much)
         if not steps:
             steps.append({})
         steps[-1]["quantization"] = Candidate(
@@ -109,10 +108,9 @@ def _select(fitter: Fitter, start: Model, max_causes: int) -> tuple[Model, list[
             qm.error_pct(record),
             qm.criterion,
             qm.criterion - current.criterion,
-            accepted,
+            accepted=True,
         )
-        if accepted:
-            current = qm
+        current = qm
     return current, steps
 
 
