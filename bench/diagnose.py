@@ -2,7 +2,8 @@
 
 Loops: the canonical loop with one hidden effect each (``sim.grid.effect_loops``), white
 noise of 1-4 % of PV's RMS on PV, OP/PV/SP only (no MV).  For every cause: how often it is
-named (the confusion row: the first cause named), the median relative error of its
+named (the confusion row: the first cause named) or, not named, listed among the answers the
+report says the data cannot tell from the one given (``cannot_tell``), the median relative error of its
 parameters, how often the extended model gains on the canonical one, fs/fd error of the
 canonical and of the extended model, and CPU seconds per loop.  With ``retrain``, the same
 loops are also quantified by ``stiction quantify``'s pipeline with the canonical models and
@@ -52,6 +53,7 @@ def _one(spec) -> dict:
     se = [_nan(rep.fs_se_pct), _nan(rep.fd_se_pct)]
     return {
         "named": list(d.causes),
+        "ties": [(t.named, t.alternative, t.delta_criterion, dict(t.parameters)) for t in d.ties],
         "truth": spec.extensions.active(),
         "params": {k: float(v) for k, v in cause_parameters(d.extended).items()},
         "gain_pct": d.gain_pct(rec),
@@ -76,9 +78,22 @@ def _mae(rows: list[dict], key: str) -> tuple[float, int]:
     return (float(np.mean(errs)) if errs else float("nan")), len(errs)
 
 
+def _said_cannot_tell(cause: str, row: dict) -> bool:
+    """The report lists the true cause (or ``none``) among the answers the data cannot tell from the one
+    given: a tie of the criteria, or the record's own limit where the truth lies beyond it."""
+    for _named, alternative, delta, params in row["ties"]:
+        if cause not in alternative.split("+"):
+            continue
+        if delta is None and not all(row["truth"].get(k, -np.inf) >= v for k, v in params.items()):
+            continue  # the record's limit covers the truth only beyond it
+        return True
+    return False
+
+
 def _summary(cause: str, rows: list[dict]) -> dict:
     first = Counter(r["named"][0] if r["named"] else "none" for r in rows)
     hit = [(cause in r["named"]) if cause != "none" else not r["named"] for r in rows]
+    tied = [not h and _said_cannot_tell(cause, r) for h, r in zip(hit, rows, strict=True)]
     rel = [
         abs(r["params"][p] - v) / abs(v)
         for r in rows
@@ -90,6 +105,7 @@ def _summary(cause: str, rows: list[dict]) -> dict:
     return {
         "n": len(rows),
         "named_share": float(np.mean(hit)),
+        "cannot_tell_share": float(np.mean(tied)),
         "first_named": dict(first),
         "param_rel_err_median": float(np.median(rel)) if rel else None,
         "gain_positive_share": float(np.mean([r["gain_pct"] > 0 for r in rows])),
@@ -132,7 +148,13 @@ def bench_diagnose(
         "draws": draws,
         "overall": {
             "named_share_effects": float(np.mean([out[c]["named_share"] for c in effects])) if effects else None,
-            "none_given_a_cause": 1 - out["none"]["named_share"] if "none" in out else None,
+            "cannot_tell_share_effects": float(np.mean([out[c]["cannot_tell_share"] for c in effects]))
+            if effects
+            else None,
+            "none_given_a_cause": 1 - out["none"]["named_share"] - out["none"]["cannot_tell_share"]
+            if "none" in out
+            else None,
+            "none_cannot_tell": out["none"]["cannot_tell_share"] if "none" in out else None,
             "fs_fd_mae_canonical_pp": float(np.nanmean([out[c]["fs_fd_mae_canonical_pp"] for c in out])),
             "fs_fd_mae_extended_pp": float(np.nanmean([out[c]["fs_fd_mae_extended_pp"] for c in out])),
             "s_per_loop_median": float(np.median([out[c]["s_per_loop_median"] for c in out])),
@@ -204,10 +226,10 @@ def print_header(per_cause: int, draws: str = "catalogue") -> None:
     ranges = "the catalogue's magnitudes" if draws == "catalogue" else "magnitudes drawn wide (WIDE_EFFECT_RANGES)"
     print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only)")
     print(
-        f"{'cause':22s} {'named':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
+        f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
         f"{'in 2se':>6s} {'s/loop':>6s}"
     )
-    print(f"{'':22s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} {'(CPU)':>6s}")
+    print(f"{'':22s} {'':>7s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} {'(CPU)':>6s}")
 
 
 def print_row(c: str, s: dict) -> None:
@@ -217,7 +239,7 @@ def print_row(c: str, s: dict) -> None:
     within = s["fs_fd_within_2se_share"]
     cover = "-" if within is None else f"{100 * within:.0f} %"
     print(
-        f"{c:22s} {100 * s['named_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
+        f"{c:22s} {100 * s['named_share']:5.0f} % {100 * s['cannot_tell_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
         f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} "
         f"{s['fs_fd_read_extended']:3d}/{s['n']:<3d} {cover:>6s} {s['s_per_loop_median']:6.1f}   "
         f"first named: {first}",
@@ -241,7 +263,8 @@ def print_retrained(c: str, s: dict) -> None:
 def print_overall(figures: dict) -> None:
     o = figures["overall"]
     print(
-        f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} %, canonical loops given a cause "
-        f"{100 * (o['none_given_a_cause'] or 0):.0f} %, fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
+        f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} % (and {100 * (o['cannot_tell_share_effects'] or 0):.0f} % "
+        "in a set the report says the data cannot tell apart), canonical loops given a cause "
+        f"{100 * (o['none_given_a_cause'] or 0):.0f} % (and {100 * (o['none_cannot_tell'] or 0):.0f} % tied), fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
         f"{o['fs_fd_mae_extended_pp']:.2f} pp extended, {o['s_per_loop_median']:.1f} s per loop (median)"
     )

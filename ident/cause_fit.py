@@ -19,6 +19,16 @@ from stiction.ident.valve_model import Hypothesis, ValveFit
 from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
 
 
+LONGEST_LAG_SHARE = 1 / 3
+"""The longest process lag tried, as a share of the record's span: a longer one changes PV over the
+record no more than the noise does, and reads as integrating (``longest_lag_s``)."""
+
+
+def longest_lag_s(record: Record) -> float:
+    """The longest self-regulating lag this record can tell from an integrating process, s."""
+    return record.n * record.ts_s * LONGEST_LAG_SHARE
+
+
 def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
     ts, span = record.ts_s, record.n * record.ts_s
     if cause == "dead_time":  # fine: a fractional delay splits every slip's flow between two samples
@@ -26,7 +36,7 @@ def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
     if cause in ("sensor_lag", "actuator_lag"):
         return ts * np.geomspace(0.3, 20, 18)
     if cause in ("process_type", "process_gain+process_type"):
-        return np.geomspace(0.05 * ts, span / 3, 18)  # longer lags than a third of the record read as integrating
+        return np.geomspace(0.05 * ts, longest_lag_s(record), 18)
     if cause == "process_gain":
         return np.array([1.0])
     if cause == "external_oscillation":

@@ -23,6 +23,7 @@ import numpy as np
 from stiction.ident import checks, lattice
 from stiction.ident.cause_fit import (
     CAUSES_FITTED_IN_FULL,
+    longest_lag_s,
     MAX_FULL_CAUSES,
     SEARCHED,
     Fitter,
@@ -37,7 +38,17 @@ from stiction.ident.cause_fit import (
     widened,
 )
 from stiction.ident.friction import friction
-from stiction.ident.models import APPLY, MARGIN, MAX_CAUSES, Candidate, Diagnosis, Model, cause_parameters
+from stiction.ident.models import (
+    APPLY,
+    MARGIN,
+    MAX_CAUSES,
+    TIE_CRITERION,
+    Candidate,
+    Diagnosis,
+    Model,
+    Tie,
+    cause_parameters,
+)
 from stiction.ident.record import Record
 from stiction.ident.valve_model import Hypothesis
 
@@ -159,7 +170,49 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
         friction(base.fit, record),
         widened(friction(chosen.fit, record), chosen.spread),
         stiction_delta,
+        ties=ties(steps, chosen, record),
     )
+
+
+def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> list[Tie]:
+    """The answers the data cannot tell from the one given, step by step of the forward selection:
+    a cause accepted by less than ``TIE_CRITERION`` (it, or nothing more); a rival whose fit came
+    within that of the accepted cause's; a cause turned down by no more than that.  And where the
+    process reads as integrating, the lag beyond which the record cannot tell a self-regulating
+    process from it (``ident.cause_fit.longest_lag_s``).  Quantisation is read from the values'
+    lattice, not weighed, and ties with nothing."""
+    out: list[Tie] = []
+    for step in steps:
+        fitted = {c: k for c, k in step.items() if k.criterion is not None and c != "quantization"}
+        accepted = [k for k in fitted.values() if k.accepted]
+        if not accepted:
+            out += [
+                Tie("none", c, k.delta_criterion, k.parameters, "turned down by less than the tie")
+                for c, k in fitted.items()
+                if k.delta_criterion is not None and k.delta_criterion <= TIE_CRITERION
+            ]
+            continue
+        won = accepted[0]
+        if won.delta_criterion is not None and -won.delta_criterion <= TIE_CRITERION:
+            out.append(Tie(won.cause, "none", -won.delta_criterion, {}, "accepted by less than the tie"))
+        out += [
+            Tie(won.cause, c, k.criterion - won.criterion, k.parameters, "a rival fit as good")
+            for c, k in fitted.items()
+            if c != won.cause and k.criterion - won.criterion <= TIE_CRITERION
+        ]
+    if chosen.hypothesis.dynamics.time_constant_s is None:
+        longest = longest_lag_s(record)
+        out.append(
+            Tie(
+                "none",
+                "process_type",
+                None,
+                {"time_constant_s": longest},
+                f"a self-regulating process with a lag of {longest:.4g} s or longer: this {record.n * record.ts_s:.4g} s "
+                "record cannot tell it from integrating",
+            )
+        )
+    return out
 
 
 def _params_of(move: str) -> tuple[str, ...]:

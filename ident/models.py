@@ -19,6 +19,10 @@ Choudhury's S and J (``sim.valve.band_and_jump_pct``)."""
 NO_SPREAD = (0.0,) * len(SPREAD_FIELDS)
 MARGIN = 0.0
 """Criterion improvement a cause must bring beyond its parameter's own price."""
+TIE_CRITERION = 2.0
+"""Two models whose Schwarz criteria differ by no more than this explain the data equally: a
+difference under 2 is evidence "not worth more than a bare mention" (Kass & Raftery 1995, the
+scale BIC differences are read on).  Chosen from the literature, not from the benchmark."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,20 @@ class Candidate:
 
 
 @dataclass(frozen=True)
+class Tie:
+    """Two answers the data cannot tell apart: the one named (a cause, or ``none``: nothing beyond the
+    causes named before it) and an ``alternative`` that explains PV as well, with the alternative's
+    criterion minus the named one's (``delta_criterion``, None where the limit is the record's, not a
+    fit's) and the alternative's parameters."""
+
+    named: str
+    alternative: str
+    delta_criterion: float | None
+    parameters: dict[str, float]
+    note: str
+
+
+@dataclass(frozen=True)
 class Diagnosis:
     base: Model
     extended: Model
@@ -85,6 +103,8 @@ class Diagnosis:
     linear_valve_delta: float
     """Criterion of a valve without stiction minus the extended model's (positive: stiction earns its place)."""
     notes: list[str] = field(default_factory=list)
+    ties: list[Tie] = field(default_factory=list)
+    """Answers the data cannot tell from the one given (``ident.diagnose.ties``)."""
 
     @property
     def causes(self) -> tuple[str, ...]:

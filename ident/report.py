@@ -155,6 +155,16 @@ def diagnosis_report(
         sample_time_s=record.ts_s,
         cause=d.causes[0] if d.causes else "none",
         causes=list(d.causes),
+        cannot_tell=[
+            schema.CannotTell(
+                named=t.named,
+                alternative=t.alternative,
+                delta_criterion=_opt(t.delta_criterion),
+                parameters={k: float(v) for k, v in t.parameters.items() if math.isfinite(v)},
+                note=t.note,
+            )
+            for t in d.ties
+        ],
         parameters={k: float(v) for k, v in params.items() if math.isfinite(v)},
         candidates=candidates,
         base_error=d.base.error_pct(record),

@@ -28,6 +28,19 @@ class CauseCandidate(_Frozen):
     note: str = ""
 
 
+class CannotTell(_Frozen):
+    """Two answers the data cannot tell apart (their Schwarz criteria within 2: Kass & Raftery's "not
+    worth more than a bare mention"; or a limit of the record itself)."""
+
+    named: str = Field(description="the answer given at that step: a cause, or 'none' (nothing beyond the causes before)")
+    alternative: str = Field(description="a cause (or 'none') that explains PV as well")
+    delta_criterion: float | None = Field(
+        description="the alternative's criterion minus the named one's; null where the limit is the record's"
+    )
+    parameters: dict[str, float] = Field(description="the alternative's parameters, named as in the catalogue")
+    note: str = ""
+
+
 class Friction(_Frozen):
     """A valve's friction under one model: S (deadband + stickband, the OP travel after a reversal before the
     stem moves) and J (the slip jump) in % of span, fs and fd in % of 500 lbf (the thesis's valve)."""
@@ -89,6 +102,10 @@ class DiagnosisReport(_Frozen):
     sample_time_s: float
     cause: str = Field(description="the first cause that earned its place, or 'none'")
     causes: list[str] = Field(description="every cause that earned its place, in the order it was added")
+    cannot_tell: list[CannotTell] = Field(
+        default_factory=list,
+        description="answers the data cannot tell from those given: read a cause here as 'or'",
+    )
     parameters: dict[str, float] = Field(description="the fitted parameters of every named cause")
     candidates: dict[str, CauseCandidate]
     base_error: float = Field(

@@ -34,13 +34,16 @@ def _summary(path: str, r) -> str:
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"
 
+    limits = [t for t in r.cannot_tell if t.delta_criterion is None]  # the record's own limits
+    fitted = [t for t in r.cannot_tell if t.delta_criterion is not None]
     causes = ", ".join(
         f"{c} ({', '.join(f'{k} {v:.3g}' for k, v in r.parameters.items() if k in _params(c))})" for c in r.causes
     )
     lines = [
         f"{path}",
-        f"  process: {r.process.description}",
+        f"  process: {r.process.description}" + "".join(f" (or {t.note})" for t in limits),
         f"  causes: {causes or (NONE_NAMED if r.candidates else '-')}",
+        *([f"  cannot tell: {_ties(fitted)}"] if fitted else []),
         f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
         f"  S {f(r.s_pct)} +- {f(r.s_se_pct)} %  J {f(r.j_pct)} +- {f(r.j_se_pct)} % of span   "
         f"(fs {f(r.fs_pct, 1)} %, fd {f(r.fd_pct, 1)} % of 500 lbf; "
@@ -54,6 +57,16 @@ def _summary(path: str, r) -> str:
         )
     lines += [f"  warning: {w}" for w in r.warnings]
     return "\n".join(lines)
+
+
+def _ties(ties) -> str:
+    """'dead_time or sensor_lag (sensor_tau_s 3.1), criterion +1.2'."""
+
+    def one(t) -> str:
+        params = ", ".join(f"{k} {v:.3g}" for k, v in t.parameters.items())
+        return f"{t.named} or {t.alternative}{f' ({params})' if params else ''}, criterion {t.delta_criterion:+.1f}"
+
+    return "; ".join(one(t) for t in ties)
 
 
 def _params(cause: str) -> tuple[str, ...]:
