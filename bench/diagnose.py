@@ -226,10 +226,13 @@ def print_header(per_cause: int, draws: str = "catalogue") -> None:
     ranges = "the catalogue's magnitudes" if draws == "catalogue" else "magnitudes drawn wide (WIDE_EFFECT_RANGES)"
     print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only)")
     print(
-        f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} {'read':>7s} "
-        f"{'in 2se':>6s} {'s/loop':>6s}"
+        f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} "
+        f"{'read':>7s} {'in 2se':>6s} {'s/loop':>6s}"
     )
-    print(f"{'':22s} {'':>7s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} {'(CPU)':>6s}")
+    print(
+        f"{'':22s} {'':>7s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} "
+        f"{'(CPU)':>6s}"
+    )
 
 
 def print_row(c: str, s: dict) -> None:
@@ -239,7 +242,8 @@ def print_row(c: str, s: dict) -> None:
     within = s["fs_fd_within_2se_share"]
     cover = "-" if within is None else f"{100 * within:.0f} %"
     print(
-        f"{c:22s} {100 * s['named_share']:5.0f} % {100 * s['cannot_tell_share']:5.0f} % {param:>6s} {100 * s['gain_positive_share']:5.0f} % "
+        f"{c:22s} {100 * s['named_share']:5.0f} % {100 * s['cannot_tell_share']:5.0f} % {param:>6s} "
+        f"{100 * s['gain_positive_share']:5.0f} % "
         f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} "
         f"{s['fs_fd_read_extended']:3d}/{s['n']:<3d} {cover:>6s} {s['s_per_loop_median']:6.1f}   "
         f"first named: {first}",
@@ -262,9 +266,10 @@ def print_retrained(c: str, s: dict) -> None:
 
 def print_overall(figures: dict) -> None:
     o = figures["overall"]
+    tied, none_tied = 100 * (o["cannot_tell_share_effects"] or 0), 100 * (o["none_cannot_tell"] or 0)
     print(
-        f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} % (and {100 * (o['cannot_tell_share_effects'] or 0):.0f} % "
-        "in a set the report says the data cannot tell apart), canonical loops given a cause "
-        f"{100 * (o['none_given_a_cause'] or 0):.0f} % (and {100 * (o['none_cannot_tell'] or 0):.0f} % tied), fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
+        f"overall: effects named {100 * (o['named_share_effects'] or 0):.0f} % (and {tied:.0f} % in a set the report "
+        f"says the data cannot tell apart), canonical loops given a cause {100 * (o['none_given_a_cause'] or 0):.0f} % "
+        f"(and {none_tied:.0f} % tied), fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
         f"{o['fs_fd_mae_extended_pp']:.2f} pp extended, {o['s_per_loop_median']:.1f} s per loop (median)"
     )

@@ -18,7 +18,6 @@ from stiction.ident.stem import StemReader
 from stiction.ident.valve_model import Hypothesis, ValveFit
 from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, band_and_jump_pct
 
-
 LONGEST_LAG_SHARE = 1 / 3
 """The longest process lag tried, as a share of the record's span: a longer one changes PV over the
 record no more than the noise does, and reads as integrating (``longest_lag_s``)."""

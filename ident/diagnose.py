@@ -23,13 +23,13 @@ import numpy as np
 from stiction.ident import checks, lattice
 from stiction.ident.cause_fit import (
     CAUSES_FITTED_IN_FULL,
-    longest_lag_s,
     MAX_FULL_CAUSES,
     SEARCHED,
     Fitter,
     baseline,
     combined,
     fit_in_full,
+    longest_lag_s,
     names,
     quantised,
     refined,
@@ -208,8 +208,8 @@ def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> li
                 "process_type",
                 None,
                 {"time_constant_s": longest},
-                f"a self-regulating process with a lag of {longest:.4g} s or longer: this {record.n * record.ts_s:.4g} s "
-                "record cannot tell it from integrating",
+                f"a self-regulating process with a lag of {longest:.4g} s or longer: this "
+                f"{record.n * record.ts_s:.4g} s record cannot tell it from integrating",
             )
         )
     return out

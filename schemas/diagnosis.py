@@ -32,7 +32,9 @@ class CannotTell(_Frozen):
     """Two answers the data cannot tell apart (their Schwarz criteria within 2: Kass & Raftery's "not
     worth more than a bare mention"; or a limit of the record itself)."""
 
-    named: str = Field(description="the answer given at that step: a cause, or 'none' (nothing beyond the causes before)")
+    named: str = Field(
+        description="the answer given at that step: a cause, or 'none' (nothing beyond the causes before)"
+    )
     alternative: str = Field(description="a cause (or 'none') that explains PV as well")
     delta_criterion: float | None = Field(
         description="the alternative's criterion minus the named one's; null where the limit is the record's"
