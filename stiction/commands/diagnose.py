@@ -43,7 +43,7 @@ def _summary(path: str, r) -> str:
         f"{path}",
         f"  process: {r.process.description}" + "".join(f" (or {t.note})" for t in limits),
         f"  causes: {causes or (NONE_NAMED if r.candidates else '-')}",
-        *([f"  cannot tell: {_ties(fitted)}"] if fitted else []),
+        *([f"  cannot tell: {_ties(fitted, bool(r.causes))}"] if fitted else []),
         f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
         f"  S {f(r.s_pct)} +- {f(r.s_se_pct)} %  J {f(r.j_pct)} +- {f(r.j_se_pct)} % of span   "
         f"(fs {f(r.fs_pct, 1)} %, fd {f(r.fd_pct, 1)} % of 500 lbf; "
@@ -59,12 +59,16 @@ def _summary(path: str, r) -> str:
     return "\n".join(lines)
 
 
-def _ties(ties) -> str:
-    """'dead_time or sensor_lag (sensor_tau_s 3.1), criterion +1.2'."""
+def _ties(ties, after_causes: bool) -> str:
+    """'dead_time or sensor_lag (sensor_tau_s 3.1), criterion +1.2'; 'none' after named causes is 'nothing more'."""
+
+    def name(cause: str) -> str:
+        return "nothing more" if cause == "none" and after_causes else cause
 
     def one(t) -> str:
         params = ", ".join(f"{k} {v:.3g}" for k, v in t.parameters.items())
-        return f"{t.named} or {t.alternative}{f' ({params})' if params else ''}, criterion {t.delta_criterion:+.1f}"
+        params = f" ({params})" if params else ""
+        return f"{name(t.named)} or {name(t.alternative)}{params}, criterion {t.delta_criterion:+.1f}"
 
     return "; ".join(one(t) for t in ties)
 
