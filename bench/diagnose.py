@@ -78,16 +78,25 @@ def _mae(rows: list[dict], key: str) -> tuple[float, int]:
     return (float(np.mean(errs)) if errs else float("nan")), len(errs)
 
 
+def _within(truth: dict[str, float], params: dict[str, float]) -> bool:
+    """The true parameters within the bounds a tie gives (``name_low``, ``name_high``); no bound, no limit."""
+    for key, bound in params.items():
+        name, _, side = key.rpartition("_")
+        if side == "low" and not truth.get(name, -np.inf) >= bound:
+            return False
+        if side == "high" and not truth.get(name, np.inf) <= bound:
+            return False
+    return True
+
+
 def _said_cannot_tell(cause: str, row: dict) -> bool:
     """The report lists the true cause (or ``none``) among the answers the data cannot tell from the one
-    given: a tie of the criteria, or the record's own limit where the truth lies beyond it."""
-    for _named, alternative, delta, params in row["ties"]:
-        if cause not in alternative.split("+"):
-            continue
-        if delta is None and not all(row["truth"].get(k, -np.inf) >= v for k, v in params.items()):
-            continue  # the record's limit covers the truth only beyond it
-        return True
-    return False
+    given: a tie of the criteria, the record's own limit or a parameter's interval, the truth within
+    the bounds those give."""
+    return any(
+        cause in alternative.split("+") and _within(row["truth"], params)
+        for _named, alternative, _delta, params in row["ties"]
+    )
 
 
 def _summary(cause: str, rows: list[dict]) -> dict:

@@ -69,7 +69,8 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
         if c in models:
             m = models[c]
             params = {k: v for k, v in cause_parameters(m).items() if k in _params_of(c)}
-            tried[c] = Candidate(c, params, m.error_pct(record), m.criterion, m.criterion - reference)
+            se = {"gain_ratio": float(m.fit.gain_se)} if "gain_ratio" in params else {}
+            tried[c] = Candidate(c, params, m.error_pct(record), m.criterion, m.criterion - reference, se=se)
         else:
             sc = screened[c]
             i = int(np.argmin(sc.criteria))
@@ -174,10 +175,35 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     )
 
 
+GAIN_SE_COVER = 2.0
+"""Standard errors either side of a turned-down gain's fit that the data allow (about 95 %)."""
+
+
+def _gain_interval(cand: Candidate | None) -> list[Tie]:
+    """A process gain turned down whose interval (``GAIN_SE_COVER`` standard errors) holds the nominal:
+    the data allow any gain in it, and the report gives the interval rather than "nominal"."""
+    if cand is None or cand.accepted or "gain_ratio" not in cand.parameters or "gain_ratio" not in cand.se:
+        return []
+    ratio, se = cand.parameters["gain_ratio"], cand.se["gain_ratio"]
+    lo, hi = ratio - GAIN_SE_COVER * se, ratio + GAIN_SE_COVER * se
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo <= 1.0 <= hi):
+        return []
+    return [
+        Tie(
+            "none",
+            "process_gain",
+            cand.delta_criterion,
+            {"gain_ratio_low": lo, "gain_ratio_high": hi},
+            f"a process gain of {lo:.3g}-{hi:.3g} times the nominal explains PV as well (two standard errors)",
+        )
+    ]
+
+
 def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> list[Tie]:
     """The answers the data cannot tell from the one given, step by step of the forward selection:
     a cause accepted by less than ``TIE_CRITERION`` (it, or nothing more); a rival whose fit came
-    within that of the accepted cause's; a cause turned down by no more than that.  And where the
+    within that of the accepted cause's; a cause turned down by no more than that; a process gain turned
+    down whose interval holds the nominal (``_gain_interval``).  And where the
     process reads as integrating, the lag beyond which the record cannot tell a self-regulating
     process from it (``ident.cause_fit.longest_lag_s``).  Quantisation is read from the values'
     lattice, not weighed, and ties with nothing."""
@@ -186,10 +212,12 @@ def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> li
         fitted = {c: k for c, k in step.items() if k.criterion is not None and c != "quantization"}
         accepted = [k for k in fitted.values() if k.accepted]
         if not accepted:
-            out += [
+            gain = _gain_interval(fitted.get("process_gain"))  # says more than a tie of the criteria
+            out += gain + [
                 Tie("none", c, k.delta_criterion, k.parameters, "turned down by less than the tie")
                 for c, k in fitted.items()
                 if k.delta_criterion is not None and k.delta_criterion <= TIE_CRITERION
+                and not (gain and c == "process_gain")
             ]
             continue
         won = accepted[0]
@@ -207,7 +235,7 @@ def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> li
                 "none",
                 "process_type",
                 None,
-                {"time_constant_s": longest},
+                {"time_constant_s_low": longest},
                 f"a self-regulating process with a lag of {longest:.4g} s or longer: this "
                 f"{record.n * record.ts_s:.4g} s record cannot tell it from integrating",
             )

@@ -76,6 +76,8 @@ class Candidate:
     accepted: bool = False
     identifiable: bool = True
     note: str = ""
+    se: dict[str, float] = field(default_factory=dict)
+    """Standard errors of ``parameters`` where the fit gives them (the process gain's)."""
 
 
 @dataclass(frozen=True)

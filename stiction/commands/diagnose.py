@@ -66,6 +66,8 @@ def _ties(ties, after_causes: bool) -> str:
         return "nothing more" if cause == "none" and after_causes else cause
 
     def one(t) -> str:
+        if any(k.endswith(("_low", "_high")) for k in t.parameters):  # an interval: its note says it
+            return f"{name(t.named)} or {t.note}"
         params = ", ".join(f"{k} {v:.3g}" for k, v in t.parameters.items())
         params = f" ({params})" if params else ""
         return f"{name(t.named)} or {name(t.alternative)}{params}, criterion {t.delta_criterion:+.1f}"

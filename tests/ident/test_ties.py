@@ -65,7 +65,7 @@ def test_ties_are_read_from_the_steps_as_written():
     # the fitted lag and the record's limit are both "none or process_type": the limit is the later one
     lag = [t for t in ties(steps, _chosen(None), record) if t.alternative == "process_type"]
     assert [t.delta_criterion for t in lag] == [pytest.approx(half), None]
-    assert lag[1].parameters == {"time_constant_s": pytest.approx(longest_lag_s(record))}
+    assert lag[1].parameters == {"time_constant_s_low": pytest.approx(longest_lag_s(record))}
     assert longest_lag_s(record) == pytest.approx(1000 * 2.0 / 3)
     # a process read as self-regulating carries no limit of the record
     assert all(t.delta_criterion is not None for t in ties(steps, _chosen(60.0), record))
@@ -84,7 +84,7 @@ def test_a_lag_longer_than_the_record_can_tell_is_reported_as_such_not_as_none_a
     assert "process_type" not in report.causes  # no lag the record cannot tell is named
     limits = [t for t in report.cannot_tell if t.alternative == "process_type" and t.delta_criterion is None]
     assert limits, report.cannot_tell
-    assert limits[0].parameters["time_constant_s"] <= 700.0
+    assert limits[0].parameters["time_constant_s_low"] <= 700.0
     assert "cannot tell" in limits[0].note
 
 
@@ -93,3 +93,27 @@ def test_a_lag_the_record_can_tell_is_named_without_the_records_limit():
     report = diagnosis_report("lag", record, diagnose(record))
     assert report.causes[0] == "process_type"
     assert not [t for t in report.cannot_tell if t.delta_criterion is None]
+
+
+def test_a_gain_turned_down_gives_the_interval_the_data_allow_where_it_holds_the_nominal():
+    def step(ratio, se):
+        cand = _cand("process_gain", 110.0, 3 * TIE_CRITERION, gain_ratio=ratio)
+        return [{"process_gain": Candidate(**{**cand.__dict__, "se": {"gain_ratio": se}})}]
+
+    (tie,) = [t for t in ties(step(1.04, 0.03), _chosen(60.0), _record()) if t.alternative == "process_gain"]
+    assert tie.named == "none"
+    assert tie.parameters == {"gain_ratio_low": pytest.approx(0.98), "gain_ratio_high": pytest.approx(1.10)}
+    # the nominal outside two standard errors: the data do not allow it, no interval is offered
+    assert not [t for t in ties(step(1.10, 0.03), _chosen(60.0), _record()) if t.alternative == "process_gain"]
+
+
+def test_a_gain_too_close_to_the_nominal_to_name_is_reported_with_its_interval():
+    truth = 1.03
+    record = _loop(Extensions(gain_ratio=truth), seed=3)
+    report = diagnosis_report("gain", record, diagnose(record))
+    if "process_gain" in report.causes:
+        assert report.parameters["gain_ratio"] == pytest.approx(truth, abs=0.05)
+        return
+    (tie,) = [t for t in report.cannot_tell if t.alternative == "process_gain"]
+    assert tie.parameters["gain_ratio_low"] <= truth <= tie.parameters["gain_ratio_high"]
+    assert tie.parameters["gain_ratio_low"] <= 1.0 <= tie.parameters["gain_ratio_high"]

@@ -39,7 +39,7 @@ def test_json_names_the_cause_and_checks_the_valve_where_mv_is_there(loops, caps
         # an integrating reading carries the record's limit on a lag: 1000 s of record, a third of it
         (limit,) = [t for t in r["cannot_tell"] if t["delta_criterion"] is None]
         assert limit["alternative"] == "process_type"
-        assert limit["parameters"]["time_constant_s"] == pytest.approx(1000 / 3, rel=0.01)
+        assert limit["parameters"]["time_constant_s_low"] == pytest.approx(1000 / 3, rel=0.01)
     assert not no_mv["uses_mv"] and no_mv["valve_check"] is None
     assert with_mv["uses_mv"] and with_mv["valve_check"]["model"] == "sticky"
     assert with_mv["valve_check"]["calibration_gain"] == pytest.approx(1, abs=0.02)

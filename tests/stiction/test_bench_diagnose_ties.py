@@ -1,0 +1,33 @@
+"""``stiction bench diagnose`` counts a loop as "cannot tell" only where the report's own set covers the truth."""
+
+from stiction.bench.diagnose import _said_cannot_tell, _summary
+
+
+def _row(truth, named, ties):
+    return {"truth": truth, "named": named, "ties": ties, "params": {}, "gain_pct": 0.0, "covered": None,
+            "fs_fd_base": [1.0, 1.0], "fs_fd_ext": [1.0, 1.0], "fs_fd_true": [1.0, 1.0], "seconds": 1.0}  # fmt: skip
+
+
+def test_a_set_covers_the_truth_by_name_and_within_its_bounds():
+    lag_limit = ("none", "process_type", None, {"time_constant_s_low": 333.0})
+    assert _said_cannot_tell("process_type", _row({"time_constant_s": 450.0}, [], [lag_limit]))
+    assert not _said_cannot_tell("process_type", _row({"time_constant_s": 200.0}, [], [lag_limit]))
+    gain = ("none", "process_gain", 5.0, {"gain_ratio_low": 0.95, "gain_ratio_high": 1.08})
+    assert _said_cannot_tell("process_gain", _row({"gain_ratio": 1.05}, [], [gain]))
+    assert not _said_cannot_tell("process_gain", _row({"gain_ratio": 1.2}, [], [gain]))
+    assert not _said_cannot_tell("dead_time", _row({"dead_time_s": 1.0}, [], [gain]))
+    rival = ("sensor_lag", "dead_time", 1.2, {"dead_time_s": 0.8})
+    assert _said_cannot_tell("dead_time", _row({"dead_time_s": 1.0}, ["sensor_lag"], [rival]))
+    combined = ("none", "process_gain+process_type", 0.5, {"time_constant_s": 80.0})
+    assert _said_cannot_tell("process_type", _row({"time_constant_s": 90.0}, [], [combined]))
+
+
+def test_named_loops_are_not_counted_twice_and_misses_stay_misses():
+    lag_limit = ("none", "process_type", None, {"time_constant_s_low": 333.0})
+    rows = [
+        _row({"time_constant_s": 100.0}, ["process_type"], []),  # named
+        _row({"time_constant_s": 450.0}, [], [lag_limit]),  # beyond the record: cannot tell
+        _row({"time_constant_s": 200.0}, [], [lag_limit]),  # within reach, read as none: a miss
+    ]
+    s = _summary("process_type", rows)
+    assert s["named_share"] == 1 / 3 and s["cannot_tell_share"] == 1 / 3
