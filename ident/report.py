@@ -17,6 +17,9 @@ from stiction.ident.trust import stuck_travel_contradicts, with_model_error
 from stiction.ident.valve_model import ValveFit
 from stiction.schemas import diagnosis as schema
 
+WORSE_SHARE = 0.05
+"""An extended model whose simulated error exceeds the canonical's by more than this share is flagged."""
+
 
 def _opt(x) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
@@ -145,6 +148,13 @@ def diagnosis_report(
         )
         for c, cand in d.candidates.items()
     }
+    base_error, extended_error = d.base.error_pct(record), d.extended.error_pct(record)
+    if d.causes and extended_error > base_error * (1 + WORSE_SHARE):
+        notes.append(
+            f"the extended model predicts PV better a sample ahead (the criterion that named its causes) but "
+            f"simulates it from OP worse than the canonical model ({base_error:.3g} -> {extended_error:.3g} % of "
+            "span): its causes fit the loop's short-term dynamics, not the record's course; read them with care"
+        )
     if d.linear_valve_delta <= 0 and not d.notes and not blocking(problems):
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
@@ -167,8 +177,8 @@ def diagnosis_report(
         ],
         parameters={k: float(v) for k, v in params.items() if math.isfinite(v)},
         candidates=candidates,
-        base_error=d.base.error_pct(record),
-        extended_error=d.extended.error_pct(record),
+        base_error=base_error,
+        extended_error=extended_error,
         gain_pct=d.gain_pct(record),
         **friction_out(f).model_dump(),
         base_friction=friction_out(base_friction),
