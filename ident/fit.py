@@ -41,6 +41,7 @@ from stiction.ident.valve_model import (
     linear_fit,
     own_params,
     path_regressors,
+    path_regressors_many,
     solve,
     solved_rows,
     valve_from_fit,
@@ -221,7 +222,7 @@ def fit_valve(
         levels = np.concatenate([np.full(grid.size, c[2]) for c in centres])
         for _ in range(WALK_ITERATIONS):
             cands = walk(read, drive, bands, stops, levels, window, read_levels)
-            regs = np.stack([path_regressors(c, record.n, record.ts_s, hyp.snapshot) for c in cands])
+            regs = path_regressors_many(cands, record.n, record.ts_s, hyp.snapshot)
             rss, coef = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
             new_stops, new_levels = _walk_parameters(coef, bands)
             ok = np.isfinite(new_stops) & np.isfinite(new_levels)
@@ -251,6 +252,16 @@ def fit_valve(
 PRUNE_ROUNDS = 2
 
 
+def _each_without(slips: Slips, drop: np.ndarray) -> list[Slips]:
+    """``slips`` less one of ``drop`` each: every field gathered for all of them at once."""
+    m = slips.at.size
+    keep = np.ones((drop.size, m), bool)
+    keep[np.arange(drop.size), drop] = False
+    idx = np.nonzero(keep)[1].reshape(drop.size, m - 1)
+    columns = [getattr(slips, f.name)[idx] for f in fields(Slips)]
+    return [Slips(*(c[v] for c in columns)) for v in range(drop.size)]
+
+
 def _prune_forced(
     record: Record, hyp: Hypothesis, slips: Slips, tf, q, nominal_gain: float, fixed: int, harmful_only: bool = False
 ) -> Slips:
@@ -263,9 +274,8 @@ def _prune_forced(
         forced = np.flatnonzero(slips.read)
         if forced.size == 0:
             break
-        keep_sets = [np.delete(np.arange(slips.at.size), i) for i in forced]
-        variants = [slips] + [Slips(*(getattr(slips, f.name)[k] for f in fields(Slips))) for k in keep_sets]
-        regs = np.stack([path_regressors(v, record.n, record.ts_s, hyp.snapshot) for v in variants])
+        variants = [slips, *_each_without(slips, forced)]
+        regs = path_regressors_many(variants, record.n, record.ts_s, hyp.snapshot)
         rss, _ = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
         ic = criterion(rss, fixed + np.array([v.read.sum() for v in variants]), record.n_fit)
         better = forced[rss[1:] < rss[0]] if harmful_only else forced[ic[1:] < ic[0]]

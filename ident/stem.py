@@ -203,13 +203,18 @@ def _path(u: np.ndarray, k0: int, ends: list[int], noise_sd: float, n: int | Non
         if b - a == 1 and min(u[a - 1], u[b]) < u[a] < max(u[a - 1], u[b]):
             drop.add(b if abs(u[a] - u[b]) < abs(u[a] - u[a - 1]) else a)
     bounds = [x for x in bounds if x not in drop]
-    starts, levels = [bounds[0]], [u[: bounds[1]].mean()]
+    total = np.concatenate([[0.0], np.cumsum(u)]).tolist()  # a stretch's mean from two sums, not a pass over it
+
+    def mean(a: int, b: int) -> float:
+        return (total[b] - total[a]) / (b - a)
+
+    starts, levels = [bounds[0]], [mean(0, bounds[1])]
     for a, b in zip(bounds[1:-1], bounds[2:], strict=True):
-        level = u[a:b].mean()
+        level = mean(a, b)
         # a split of one still stretch (drift, noise) is no slip: merge it into the piece before
         se = noise_sd * np.sqrt(1.0 / (b - a) + 1.0 / (a - starts[-1]))
         if abs(level - levels[-1]) < MIN_JUMP_SD * se:
-            levels[-1] = u[starts[-1] : b].mean()
+            levels[-1] = mean(starts[-1], b)
             continue
         starts.append(a)
         levels.append(level)

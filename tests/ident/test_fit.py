@@ -95,3 +95,35 @@ def test_vectorised_regressors_equal_the_slip_by_slip_recursion(seed):
     breaks = np.where(rng.random(m) < 0.5, 0.0, rng.random(m))
     slips = M.Slips(at, rng.choice([-1, 1], m), breaks, rng.normal(0, 5, m), np.ones(m, bool))
     np.testing.assert_allclose(M.path_regressors(slips, 600, 1.0), _regressors_by_slip(slips, 600, 1.0))
+
+
+def _random_slips(rng, n: int) -> M.Slips:
+    m = int(rng.integers(0, 30))
+    at = np.sort(rng.choice(np.arange(0, n), m, replace=False))
+    breaks = np.where(rng.random(m) < 0.5, 0.0, rng.random(m))
+    return M.Slips(at, rng.choice([-1, 1], m), breaks, rng.normal(0, 5, m), rng.random(m) < 0.5)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_regressors_of_many_slip_sets_at_once_equal_each_set_by_itself(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(50, 700))
+    many = [_random_slips(rng, n) for _ in range(int(rng.integers(1, 12)))]  # sets of 0 to 29 slips, some at 0
+    for snapshot in (False, True):
+        np.testing.assert_allclose(
+            M.path_regressors_many(many, n, 1.5, snapshot),
+            np.stack([_regressors_by_slip(s, n, 1.5) if not snapshot else M.path_regressors(s, n, 1.5, True)
+                      for s in many]),  # fmt: skip
+            atol=1e-12,
+        )
+
+
+def test_each_slip_dropped_in_turn_keeps_the_others_in_order():
+    rng = np.random.default_rng(7)
+    slips = _random_slips(rng, 300)
+    while slips.at.size < 3:
+        slips = _random_slips(rng, 300)
+    drop = np.array([0, slips.at.size - 1, slips.at.size // 2])
+    for d, variant in zip(drop, F._each_without(slips, drop), strict=True):
+        for name in ("at", "directions", "breaks", "landing_drive", "read"):
+            np.testing.assert_array_equal(getattr(variant, name), np.delete(getattr(slips, name), d))
