@@ -267,6 +267,6 @@ def lagged_valve_step(drive_pct, op_pct, tau_s, ts_s, mv_pct, friction: Friction
     stair = drive_integral(t_break, t_last) - (d * stop_pct + d * step_pct / 2) * (t_last - t_break)
     stair = np.where(n_more > 0, stair, mv_first * (t_last - t_break))
     integral = mv_pct * t_break + stair + mv_end * (ts_s - t_last)
-    travel = np.abs(mv_end - mv_pct)
-    deficit = np.where(slipped, mv_end * ts_s - integral, 0.0) + travel * friction.slip_s
+    # a slip withholds Fv/k seconds of flow per % of its travel, in its own direction (as ``valve_step``)
+    deficit = np.where(slipped, mv_end * ts_s - integral, 0.0) + (mv_end - mv_pct) * friction.slip_s
     return Slip(mv_pct=mv_end, deficit_pct_s=deficit, slipped=slipped), p_end

@@ -179,3 +179,28 @@ def test_the_kind_of_fault_is_named_only_where_j_and_its_error_tell():
     assert fault_kind(4.0, 0.1, 0.3) == "deadband"  # J surely below a quarter of S
     assert fault_kind(4.0, 0.5, 0.5) is None  # could be either
     assert fault_kind(None, 0.5, 0.1) is None and fault_kind(4.0, 0.5, None) is None and fault_kind(0.0, 0, 0) is None
+
+
+def test_a_lagged_slip_withholds_flow_the_same_way_up_and_down():
+    """A slip's interval passes the old position until the break and the new one after it, less the
+    flow the moving stem withholds: the flow lies between the two positions, and a mirrored interval
+    (every position negated) gives the mirrored flow.  A downward slip once added the withheld flow
+    beyond the new position instead (an actuator-lag loop's PV a hair off on every second slip)."""
+    rng = np.random.default_rng(11)
+    n = 400
+    fs = rng.uniform(20, 400, n)
+    fd = fs * rng.uniform(0, 0.9, n)
+    friction = Friction.physical(fs, fd)
+    p0 = rng.uniform(-5, 5, n)
+    mv = p0 - rng.uniform(-1, 1, n) * fs / 12
+    op = p0 + rng.normal(0, 30, n)
+    tau = rng.uniform(0.2, 8, n)
+    up, _ = lagged_valve_step(p0, op, tau, 1.0, mv, friction)
+    down, _ = lagged_valve_step(-p0, -op, tau, 1.0, -mv, friction)
+    np.testing.assert_allclose(down.mv_pct, -up.mv_pct, atol=1e-9)
+    np.testing.assert_allclose(down.deficit_pct_s, -up.deficit_pct_s, atol=1e-9)
+    moved = up.slipped & (np.abs(up.mv_pct - mv) > 1e-6)
+    assert moved.sum() > 50
+    for r, start in ((up, mv), (down, -mv)):
+        flow, d = r.mv_pct - r.deficit_pct_s, np.sign(r.mv_pct - start)
+        assert np.all(d[moved] * (r.mv_pct - flow)[moved] > 0)  # short of the new position, never past it
