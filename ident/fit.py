@@ -72,6 +72,7 @@ def walk(
         drive.end,
         drive.mean,
         drive.moves,
+        drive.decay,
         read.at.astype(np.int64),
         read.directions.astype(np.int64),
         np.zeros(read.at.size) if read_levels is None else np.asarray(read_levels, float),
@@ -92,13 +93,14 @@ def _as_slips(ev: list[tuple]) -> Slips:
 
 
 def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.ndarray):
-    """(fraction of interval k before the break, drive at the break) for stems at ``level`` slipping in ``d``."""
+    """(share of interval k's time before the break, drive at the break) for stems at ``level`` slipping in ``d``."""
     if not drive.moves:
         return np.zeros(level.size), np.full(level.size, drive.mean[k])
     start, end = drive.start[k], drive.end[k]
     threshold = level + d * band
     frac = np.clip((threshold - start) / (end - start), 0.0, 1.0) if end != start else np.zeros(level.size)
-    return frac, start + frac * (end - start)
+    frac = np.where(d * (start - level) > band, 0.0, frac)  # past the band at the start: it breaks away at once
+    return drive.time_share(frac), start + frac * (end - start)
 
 
 def _batch_fit(
@@ -197,7 +199,7 @@ def fit_valve(
     op_range = float(np.ptp(record.op_pct))
     band0 = min(band0, 0.75 * op_range) if np.isfinite(band0) else band0
     limit = band0 if np.isfinite(band0) and band0 > 0 else op_range
-    if not (0.0 <= best.stop_pct <= limit):
+    if not (0.0 <= best.stop_pct <= limit) or best.jump_pct > limit:
         best = _finish(record, hyp, read, tf, q, nominal_gain, limit)
     best = replace(best, band_pct=band0, band_se=band0_se)
     usable = np.isfinite(band0) and band0 > 0 and np.isfinite(best.stop_pct)
@@ -207,7 +209,7 @@ def fit_valve(
     # at a moving drive (an actuator lag) every landing is the last one plus a jump: an error in one
     # carries into all the next, and only the data can stop it, as an observer would.  At a held
     # drive a landing is the drive less stop, which re-synchronises by itself.
-    read_levels = _read_levels(path, best) if drive.moves else None
+    read_levels = _read_levels(path, best) if drive.moves and OBSERVE_LANDINGS else None
     n, fixed = record.n_fit, best.fit.n_params + own_params(hyp)
     tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
     winner = (np.inf, read, best.stop_pct, best.level0_pct)
@@ -232,6 +234,10 @@ def fit_valve(
         # and none that slipped had a band wider than OP ever moved
         tol = 0.05 * bands
         possible = (stops >= -tol) & (stops <= bands + tol) & (bands <= op_range)
+        if drive.moves:  # nor jumps past its drive: J <= S (fd >= 0), J read from the slips at a moving drive
+            with np.errstate(divide="ignore", invalid="ignore"):
+                jumps = coef[:, 2] / coef[:, 0]
+            possible &= ~(jumps > bands + tol)
         ic = np.where(possible, ic, np.inf)
         tried_band.extend(bands), tried_ic.extend(ic)
         i = int(np.argmin(ic))
@@ -251,6 +257,7 @@ def fit_valve(
 
 
 PRUNE_ROUNDS = 2
+OBSERVE_LANDINGS = True
 QUICK_PRUNE_ROUNDS = 1
 """Pruning rounds of a first-pass fit (a screen of a cause's grid): the full fits that follow prune
 twice.  One round instead of two left every figure of ``stiction bench diagnose`` (the catalogue's
@@ -347,15 +354,12 @@ def _finish(
     c = valve_from_fit(fit)
     if band is not None and np.isfinite(band) and not (0.0 <= c.stop <= band):
         stop = float(np.clip(c.stop, 0.0, band)) if np.isfinite(c.stop) else 0.5 * band
-        held = np.stack([x[0] + stop * x[1], np.zeros_like(x[1]), x[2], x[3]])
-        fit = linear_fit(record, hyp, held, q, nominal_gain)
-        coef = fit.coef.copy()
-        coef[1] = coef[0] * stop
-        cov = fit.cov.copy()
-        cov[1, :], cov[:, 1] = stop * cov[0, :], stop * cov[:, 0]
-        cov[1, 1] = stop * stop * fit.cov[0, 0]
-        fit = replace(fit, coef=coef, cov=cov)
+        fit = _held(record, hyp, x, q, nominal_gain, 1, stop)
         c = replace(valve_from_fit(fit), stop=stop)
+    if band is not None and np.isfinite(band) and np.isfinite(c.jump) and c.jump > band:
+        # nor jumps past its drive (J <= S: fd >= 0), which a longer lag than the true one buys
+        fit = _held(record, hyp, x, q, nominal_gain, 2, band, also=(1, c.stop) if 0 <= c.stop <= band else None)
+        c = replace(valve_from_fit(fit), jump=float(band))
     lo, hi = float(record.op_pct.min()), float(record.op_pct.max())
     if not lo - (hi - lo) - 1.0 <= c.level0 <= hi + (hi - lo) + 1.0:
         # the stem before the first slip, read from a piece too short to tell: where OP started
@@ -363,6 +367,24 @@ def _finish(
     return ValveFit(
         hyp, slips, fit, c.gain, c.gain_se, c.stop, c.stop_se, c.level0, tf, jump_pct=c.jump, jump_se=c.jump_se
     )
+
+
+def _held(record: Record, hyp: Hypothesis, x: np.ndarray, q, nominal_gain: float, row: int, value: float,
+          also: tuple[int, float] | None = None):  # fmt: skip
+    """The linear fit with ``ROWS[row]`` held at ``value`` (and ``also``, a second (row, value)), the
+    rest refitted; the held coefficients are the gain's times the value, with the gain's covariance."""
+    holds = [(row, value)] + ([also] if also is not None else [])
+    held = x.copy()
+    for r, v in holds:
+        held[0] = held[0] + v * x[r]
+        held[r] = 0.0
+    fit = linear_fit(record, hyp, held, q, nominal_gain)
+    coef, cov = fit.coef.copy(), fit.cov.copy()
+    for r, v in holds:
+        coef[r] = coef[0] * v
+        cov[r, :], cov[:, r] = v * cov[0, :], v * cov[:, 0]
+        cov[r, r] = v * v * fit.cov[0, 0]
+    return replace(fit, coef=coef, cov=cov)
 
 
 def _robust_se(x: np.ndarray) -> float:

@@ -20,20 +20,26 @@ from numba import njit
 
 
 @njit(cache=True)
-def _break(start, end, mean, moves, k, level, d, band):
-    """(fraction of interval k before the break, drive at the break) for a stem at ``level`` slipping in ``d``."""
+def _break(start, end, mean, moves, decay, k, level, d, band):
+    """(share of interval k's time before the break, drive at the break) for a stem at ``level`` slipping in
+    ``d``; the drive relaxes by ``decay`` an interval (``ident.valve_model.time_share``)."""
     if not moves:
         return 0.0, mean[k]
     s, e = start[k], end[k]
     if e == s:
         return 0.0, s
+    if d * (s - level) > band:  # past the band when the interval starts: it breaks away at once
+        return 0.0, s
     frac = (level + d * band - s) / (e - s)
     frac = min(max(frac, 0.0), 1.0)
-    return frac, s + frac * (e - s)
+    t = frac
+    if 0.0 < decay < 1.0:
+        t = math.log1p(-frac * (1.0 - decay)) / math.log(decay)
+    return t, s + frac * (e - s)
 
 
 @njit(cache=True)
-def walk(start, end, mean, moves, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
+def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
     """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events."""
     n_cand, n, n_read = band.size, end.size, read_at.size
     anchor = np.full(n, -1, np.int64)
@@ -54,7 +60,7 @@ def walk(start, end, mean, moves, read_at, read_dir, read_levels, use_levels, ba
             gap = end[k] - level
             if abs(gap) > band[c]:
                 d = 1 if gap > 0 else -1
-                f, p = _break(start, end, mean, moves, k, level, d, band[c])
+                f, p = _break(start, end, mean, moves, decay, k, level, d, band[c])
                 at[c, m], dirs[c, m], brk[c, m], land[c, m], forced[c, m] = k, d, f, p, False
                 m += 1
                 level = p - d * stop[c]

@@ -44,6 +44,20 @@ class Drive:
     mean: np.ndarray
     moves: bool = False
     """Whether the drive moves within an interval (else it steps at the sample instants)."""
+    decay: float = 0.0
+    """``e^(-Ts/tau)``: the share of the gap to OP left at an interval's end (0: the drive steps)."""
+
+    def time_share(self, travel_share):
+        """The share of an interval the drive takes to cover ``travel_share`` of that interval's travel:
+        the drive relaxes exponentially, so a break halfway in travel comes before halfway in time."""
+        return time_share(travel_share, self.decay)
+
+
+def time_share(travel_share, decay: float):
+    """``t / Ts`` at which a drive relaxing by ``decay`` an interval has covered ``travel_share`` of its travel."""
+    if not 0.0 < decay < 1.0:
+        return travel_share
+    return np.log1p(-np.asarray(travel_share) * (1.0 - decay)) / np.log(decay)
 
 
 def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
@@ -60,7 +74,7 @@ def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
         end[k] = d
     start = np.concatenate([[op_pct[0]], end[:-1]])
     mean = op_pct + (start - op_pct) * actuator_tau_s / ts_s * (1 - decay)
-    return Drive(start, end, mean, True)
+    return Drive(start, end, mean, True, float(decay))
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,18 @@ def _record(ext: Extensions, fs: float, fd: float, seed: int = 3, noise: float =
     return Record(r.op[0], r.pv[0], 1.0)
 
 
-@pytest.mark.parametrize("cause", list(HIDDEN))
+LAG_AGAINST_BAND = pytest.mark.xfail(
+    strict=True,
+    reason="known (issue 25, item 3): on this loop a lag of 3.5 s reads as 7.4 s with fd 0.4 instead of 14 "
+    "(criterion 16 better): with the landings the data read as the walk's observer, a longer lag and a narrower "
+    "band explain PV as well; the fit without the observer reads 3.5 s and fs/fd right.  The simulator's lagged "
+    "slip withheld its flow the wrong way on downward slips until 2026-11-24, and this loop passed on that.",
+)
+
+
+@pytest.mark.parametrize(
+    "cause", [pytest.param(c, marks=LAG_AGAINST_BAND) if c == "actuator_lag" else c for c in HIDDEN]
+)
 def test_the_hidden_cause_is_named_with_its_parameter(cause):
     ext, fs, fd = HIDDEN[cause]
     record = _record(ext, fs, fd)
