@@ -110,3 +110,50 @@ def test_a_quantum_below_the_noise_is_named_from_the_lattice_with_its_step():
     assert "quantization" in d.causes and d.candidates["quantization"].accepted
     assert cause_parameters(d.extended)["quantum_pct"] == pytest.approx(0.03, rel=0.02)
     assert d.friction.fs_pct == pytest.approx(45.0, abs=3.0) and d.friction.fd_pct == pytest.approx(10.0, abs=3.0)
+
+
+def test_a_long_sensor_lag_is_followed_past_where_the_screen_bottoms_out():
+    """A sensor lag of 7.7 s over 1.6 % noise: the screen's first-pass fits read the slips poorly under
+    long lags and bottomed out near 4.5 s, and the selection then explained the rest with a process
+    gain and an external oscillation, fs off by 40 pp.  The full fits' own curve now decides where the
+    lag's search ends (``ident.cause_fit._downhill``)."""
+    noise = Disturbance("gaussian", "output", 0.016382649158856916)
+    spec = LoopSpec(64.80222886169516, 27.94788266234857, disturbance=noise,
+                    extensions=Extensions(sensor_tau_s=7.6715608765258), seed=359317104, sp_pct=1.0)  # fmt: skip
+    r = simulate([spec]).kept()
+    d = diagnose(Record(r.op[0], r.pv[0], 1.0))
+    assert d.causes[0] == "sensor_lag", d.causes
+    assert "external_oscillation" not in d.causes
+    assert d.friction.fs_pct == pytest.approx(64.8, abs=3.0) and d.friction.fd_pct == pytest.approx(27.9, abs=3.0)
+
+
+def test_the_lag_search_walks_the_full_fits_downhill_from_the_screens_best():
+    """On a stand-in fitter whose full fits are best at the grid's 6th point while the screen bottomed
+    out at its 3rd, the walk fits the next points while they improve, at most ``DOWNHILL_STEPS`` times,
+    and never fits a point twice."""
+    from stiction.ident.cause_fit import DOWNHILL_STEPS, Screened, _downhill
+    from stiction.ident.models import Model
+    from stiction.ident.valve_model import Hypothesis
+
+    grid = np.geomspace(1.0, 20.0, 10)
+    calls: list[float] = []
+
+    def criterion(tau_s: float) -> float:
+        return float((np.log(tau_s) - np.log(grid[5])) ** 2)
+
+    class StandIn:
+        def full(self, hyp, start=None):
+            calls.append(hyp.dynamics.sensor_tau_s)
+            return None, criterion(hyp.dynamics.sensor_tau_s)
+
+    model = Model(Hypothesis(), None, 0.0)
+    screened = Screened("sensor_lag", grid, np.zeros(grid.size), [])
+    first = [(float(grid[2]), None, criterion(grid[2]))]
+    extra = _downhill(StandIn(), screened, model, first)
+    assert len(set(calls)) == len(calls) and float(grid[2]) not in calls
+    best = min(first + extra, key=lambda f: f[2])[0]
+    assert best == pytest.approx(grid[min(2 + DOWNHILL_STEPS, 5)])
+    # started at the best point, it fits its two neighbours, finds neither better and stops
+    calls.clear()
+    extra = _downhill(StandIn(), screened, model, [(float(grid[5]), None, criterion(grid[5]))])
+    assert sorted(calls) == pytest.approx([grid[4], grid[6]])
