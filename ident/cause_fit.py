@@ -168,7 +168,6 @@ def fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
     if "process_type" in sc.cause:  # a lag as long as the grid's longest is no lag the record can tell
         values = [v for v in values if v < 0.999 * sc.grid.max()] or [float(sc.grid[-2])]
     fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v), current.fit)) for v in dict.fromkeys(values)]
-    fits += _downhill(fitter, sc, current, fits)
     value, vf, ic = min(fits, key=lambda f: f[2])
     hyp = APPLY[sc.cause](current.hypothesis, value)
     amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
@@ -184,38 +183,6 @@ def fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
         combined(current.spread, own),
         tuple(sorted(fits, key=lambda f: f[0])),
     )
-
-
-DOWNHILL_STEPS = 3
-"""Full fits at the grid's next points while they improve on the best full fit (``_downhill``)."""
-
-
-def _downhill(fitter: Fitter, sc: Screened, current: Model, fits: list) -> list:
-    """Full fits at the grid points beside the best full fit, walking on while one improves.
-
-    The screen's first-pass fits read the slips as the data show them; under a long lag those
-    readings are poor and the screen's curve can bottom out well short of the lag the full fits
-    prefer (a sensor lag of 7.8 s screened best at 4.5 s, where the full fit at 5.8 s was 100 better
-    in the criterion).  The full fits' own curve decides where the search ends."""
-    if sc.grid.size < 2 or sc.cause == "process_gain":
-        return []
-    tried = {round(float(v), 12) for v, _, _ in fits}
-    extra: list = []
-    for _ in range(DOWNHILL_STEPS):
-        value, _, best_ic = min(fits + extra, key=lambda f: f[2])
-        k = int(np.argmin(np.abs(np.log(sc.grid / value))))
-        nxt = [float(sc.grid[j]) for j in (k - 1, k, k + 1) if 0 <= j < sc.grid.size]
-        nxt = [v for v in nxt if round(v, 12) not in tried]
-        if "process_type" in sc.cause:
-            nxt = [v for v in nxt if v < 0.999 * sc.grid.max()]
-        if not nxt:
-            break
-        new = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v), current.fit)) for v in nxt]
-        tried.update(round(v, 12) for v in nxt)
-        extra += new
-        if min(ic for _, _, ic in new) >= best_ic:
-            break
-    return extra
 
 
 REFINE_STEPS = 2
