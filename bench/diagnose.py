@@ -138,14 +138,20 @@ def _pool(workers: int) -> ProcessPoolExecutor:
 
 
 def bench_diagnose(
-    per_cause: int = 20, causes: list[str] | None = None, workers: int = 2, progress=None, draws: str = "catalogue"
+    per_cause: int = 20,
+    causes: list[str] | None = None,
+    workers: int = 2,
+    progress=None,
+    draws: str = "catalogue",
+    seed: int = SEED,
 ) -> dict:
-    """``draws``: the magnitudes' ranges (``sim.grid.DRAWS``: the catalogue's, or ``wide``, as plants have them)."""
+    """``draws``: the magnitudes' ranges (``sim.grid.DRAWS``: the catalogue's, or ``wide``, as plants have them);
+    ``seed``: where the loops are drawn from (each cause its own offset from it)."""
     causes = causes or list(EFFECT_RANGES)
     out = {}
     with _pool(workers) as pool:
         for c in causes:
-            specs = effect_loops(c, per_cause, SEED + list(EFFECT_RANGES).index(c), draws=draws)
+            specs = effect_loops(c, per_cause, seed + list(EFFECT_RANGES).index(c), draws=draws)
             rows = list(pool.map(_one, specs))
             out[c] = _summary(c, rows) | {"params": list(CATALOGUE.get(c, ()))}
             if progress:
@@ -155,6 +161,7 @@ def bench_diagnose(
         "per_cause": out,
         "loops_per_cause": per_cause,
         "draws": draws,
+        "seed": seed,
         "overall": {
             "named_share_effects": float(np.mean([out[c]["named_share"] for c in effects])) if effects else None,
             "cannot_tell_share_effects": float(np.mean([out[c]["cannot_tell_share"] for c in effects]))
@@ -231,9 +238,10 @@ def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progre
     return out
 
 
-def print_header(per_cause: int, draws: str = "catalogue") -> None:
+def print_header(per_cause: int, draws: str = "catalogue", seed: int = SEED) -> None:
     ranges = "the catalogue's magnitudes" if draws == "catalogue" else "magnitudes drawn wide (WIDE_EFFECT_RANGES)"
-    print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only)")
+    drawn = "" if seed == SEED else f", drawn from seed {seed}"
+    print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only){drawn}")
     print(
         f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} "
         f"{'read':>7s} {'in 2se':>6s} {'s/loop':>6s}"

@@ -78,6 +78,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     d.add_argument("--causes", nargs="+", metavar="CAUSE", help="only these causes (default: all, and none)")
     d.add_argument("--workers", type=int, default=2, help="processes (CPU seconds are per loop and core)")
     d.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="draw the loops from this seed instead of the benchmark's own (20261122): other loops, the same "
+        "ranges, to see how much a figure owes to its draw",
+    )
+    d.add_argument(
         "--draws",
         choices=("catalogue", "wide"),
         default="catalogue",
@@ -197,10 +204,11 @@ def _diagnose(args) -> None:
     if args.loops < 1 or args.workers < 1:
         raise InputError("--loops and --workers must be at least 1")
     text = not args.json
+    seed = diagnose.SEED if args.seed is None else args.seed
     if text:
-        diagnose.print_header(args.loops, args.draws)
+        diagnose.print_header(args.loops, args.draws, seed)
     progress = diagnose.print_row if text else None
-    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=progress, draws=args.draws)
+    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=progress, draws=args.draws, seed=seed)
     if args.retrain:
         if text:
             diagnose.print_retrained_header()

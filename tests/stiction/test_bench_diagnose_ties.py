@@ -31,3 +31,19 @@ def test_named_loops_are_not_counted_twice_and_misses_stay_misses():
     ]
     s = _summary("process_type", rows)
     assert s["named_share"] == 1 / 3 and s["cannot_tell_share"] == 1 / 3
+
+
+def test_the_bench_draws_other_loops_from_another_seed(capsys):
+    """``--seed`` draws other loops over the same ranges (to see how much a figure owes to its draw), and
+    the JSON says which seed it drew from."""
+    import json
+
+    from stiction.bench.diagnose import SEED
+    from stiction.cli import main
+    from stiction.sim.grid import effect_loops
+
+    assert effect_loops("dead_time", 2, 7) != effect_loops("dead_time", 2, SEED)
+    argv = ["bench", "diagnose", "--loops", "1", "--causes", "none", "--workers", "1", "--seed", "7", "--json"]
+    assert main(argv) in (0, None)
+    figures = json.loads(capsys.readouterr().out)
+    assert figures["seed"] == 7 and figures["per_cause"]["none"]["n"] == 1
