@@ -44,6 +44,7 @@ from stiction.ident.valve_model import (
     path_regressors_many,
     solve,
     solved_rows,
+    time_share,
     valve_from_fit,
 )
 
@@ -100,7 +101,7 @@ def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.nda
     threshold = level + d * band
     frac = np.clip((threshold - start) / (end - start), 0.0, 1.0) if end != start else np.zeros(level.size)
     frac = np.where(d * (start - level) > band, 0.0, frac)  # past the band at the start: it breaks away at once
-    return drive.time_share(frac), start + frac * (end - start)
+    return time_share(frac, drive.decay), start + frac * (end - start)
 
 
 def _batch_fit(
@@ -209,7 +210,7 @@ def fit_valve(
     # at a moving drive (an actuator lag) every landing is the last one plus a jump: an error in one
     # carries into all the next, and only the data can stop it, as an observer would.  At a held
     # drive a landing is the drive less stop, which re-synchronises by itself.
-    read_levels = _read_levels(path, best) if drive.moves and OBSERVE_LANDINGS else None
+    read_levels = _read_levels(path, best) if drive.moves else None
     n, fixed = record.n_fit, best.fit.n_params + own_params(hyp)
     tried_band, tried_ic = [np.inf], [criterion(best.rss, best.n_params, n)]
     winner = (np.inf, read, best.stop_pct, best.level0_pct)
@@ -257,7 +258,6 @@ def fit_valve(
 
 
 PRUNE_ROUNDS = 2
-OBSERVE_LANDINGS = True
 QUICK_PRUNE_ROUNDS = 1
 """Pruning rounds of a first-pass fit (a screen of a cause's grid): the full fits that follow prune
 twice.  One round instead of two left every figure of ``stiction bench diagnose`` (the catalogue's

@@ -47,14 +47,10 @@ class Drive:
     decay: float = 0.0
     """``e^(-Ts/tau)``: the share of the gap to OP left at an interval's end (0: the drive steps)."""
 
-    def time_share(self, travel_share):
-        """The share of an interval the drive takes to cover ``travel_share`` of that interval's travel:
-        the drive relaxes exponentially, so a break halfway in travel comes before halfway in time."""
-        return time_share(travel_share, self.decay)
-
 
 def time_share(travel_share, decay: float):
-    """``t / Ts`` at which a drive relaxing by ``decay`` an interval has covered ``travel_share`` of its travel."""
+    """``t / Ts`` at which a drive relaxing by ``decay`` an interval has covered ``travel_share`` of its travel:
+    the drive relaxes exponentially, so a break halfway in travel comes before halfway in time."""
     if not 0.0 < decay < 1.0:
         return travel_share
     return np.log1p(-np.asarray(travel_share) * (1.0 - decay)) / np.log(decay)
@@ -136,38 +132,17 @@ def path_regressors(slips: Slips, n: int, ts_s: float, snapshot: bool = False) -
     breaks away as the drive crosses ``M_old + d S`` and lands ``stop`` short of that point: it
     jumps by ``J = S - stop``, ``M = M_old + d J``, a chain back to the last held slip or to the
     level before the first slip.  Both are linear in (stop, J, level0): the least squares solve
-    for them; the band S itself shows only in when the slips happen (``walk``).
+    for them; the band S itself shows only in when the slips happen (``walk``).  The slip's own
+    interval sees the old position until the break, then the new one, less the slip's deficit.
+    One set of slips: ``path_regressors_many``, which builds every set's pieces at once.
     """
-    m = slips.at.size
-    d = slips.directions.astype(float)
-    held = slips.breaks <= 0
-    # each slip's piece: from the last slip at a held drive (or the level before the first slip) on,
-    # plus the jumps of the slips at a moving drive since then
-    last_held = np.maximum.accumulate(np.where(held, np.arange(m), -1)) if m else np.zeros(0, int)
-    crossing = np.cumsum(np.where(held, 0.0, d))
-    at_last = np.where(last_held >= 0, crossing[np.maximum(last_held, 0)], 0.0)
-    coef = np.zeros((m + 1, 4))
-    coef[0, 3] = 1.0
-    if m:
-        base = np.where(last_held >= 0, last_held, 0)
-        from_held = last_held >= 0
-        coef[1:, 0] = np.where(from_held, slips.landing_drive[base], 0.0)
-        coef[1:, 1] = np.where(from_held, -d[base], 0.0)
-        coef[1:, 2] = crossing - at_last
-        coef[1:, 3] = np.where(from_held, 0.0, 1.0)
-    piece = np.searchsorted(slips.at, np.arange(n), side="right")
-    r = coef[piece].T.copy()
-    if snapshot:
-        return r
-    # the slip's interval: the old position until the break, then the new one, less the slip's own deficit
-    k = slips.at[slips.at > 0]
-    share = slips.breaks[slips.at > 0] + SLIP_S / ts_s
-    r[:, k] -= share * (r[:, k] - r[:, k - 1])
-    return r
+    return path_regressors_many([slips], n, ts_s, snapshot)[0]
 
 
 def path_regressors_many(many: list[Slips], n: int, ts_s: float, snapshot: bool = False) -> np.ndarray:
-    """[V, 4, N] ``path_regressors`` of every slip set at once (the searches fit dozens a step).
+    """[V, 4, N] ``path_regressors`` of every slip set at once (the searches fit dozens a step): each
+    slip's piece runs from the last slip at a held drive (or the level before the first slip) on, plus
+    the jumps of the slips at a moving drive since then.
 
     The sets are padded to the longest with slips at ``n``, past the record: they come after every
     real slip, so no piece the record reaches and no chain before them changes."""
@@ -197,7 +172,8 @@ def path_regressors_many(many: list[Slips], n: int, ts_s: float, snapshot: bool 
     r = flat[(np.arange(v_count * 4).reshape(v_count, 4, 1) * (m + 1)) + piece[:, None, :]]
     if snapshot:
         return r
-    # the slip's interval, as in ``path_regressors``; a pad (or a slip at 0) rewrites sample 0 unchanged
+    # the slip's interval: the old position until the break, then the new one, less the slip's own
+    # deficit; a pad (or a slip at 0) rewrites sample 0 unchanged
     moving = (at > 0) & (at < n)
     at_flat = np.arange(v_count * 4).reshape(v_count, 4, 1) * n + np.where(moving, at, 0)[:, None, :]
     out = r.reshape(-1)
