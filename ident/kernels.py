@@ -1,5 +1,7 @@
 """The sequential recursions of the fits, compiled: the valve's walk and the optimal segmentation;
-and the PI controller's least squares, which the agent runs on every window.
+the PI controller's least squares, which the agent runs on every window; and the process's
+difference equation (``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every
+command half a second).
 
 The first two run sample by sample with a decision at each step, which numpy cannot
 vectorise over time; the third is four columns of one window, where numpy's per-call cost
@@ -210,3 +212,25 @@ def pi_fit(op, e, ts_s):
     for k in range(n):
         ss += (res[k] - res_mean) ** 2
     return kc, ti, 1.0 - ss / var
+
+
+@njit(cache=True, nogil=True)
+def iir_rows(b, a, x):
+    """Each row of ``x`` [R, N] through ``b(q^-1) / a(q^-1)`` from rest:
+    ``a0 y[k] = sum b_i x[k-i] - sum_{i>0} a_i y[k-i]``.  Time runs in the outer loop and the rows
+    in the inner one (contiguous, in SIMD lanes)."""
+    rows, n = x.shape
+    xt = np.ascontiguousarray(x.T)  # [N, R]
+    yt = np.empty_like(xt)
+    for k in range(n):
+        for r in range(rows):
+            yt[k, r] = b[0] * xt[k, r]
+        for i in range(1, min(b.size, k + 1)):
+            for r in range(rows):
+                yt[k, r] += b[i] * xt[k - i, r]
+        for i in range(1, min(a.size, k + 1)):
+            for r in range(rows):
+                yt[k, r] -= a[i] * yt[k - i, r]
+        for r in range(rows):
+            yt[k, r] /= a[0]
+    return np.ascontiguousarray(yt.T)

@@ -2,7 +2,7 @@
 
 ``sim.process`` discretises the plant exactly (zero-order hold, fractional dead time);
 here the same discretisation becomes ``PV = B(q)/A(q) u`` so that many candidate valve
-outputs ``u`` go through it with one ``scipy.signal.lfilter`` call, and the unknown
+outputs ``u`` go through it with one call (``ident.kernels.iir_rows``), and the unknown
 initial state becomes linear nuisance regressors (the plant's free responses).
 
 Dynamics are named as in the diagnose catalogue and relative to the canonical level
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import lfilter
 
+from stiction.ident import kernels
 from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
 
 NOMINAL = LOOPS["level"]
@@ -55,7 +55,9 @@ class TransferFunction:
 
     def response(self, u: np.ndarray) -> np.ndarray:
         """[B, N] inputs (mean valve position over each interval) -> [B, N] PV from rest."""
-        return lfilter(self.b, self.a, u, axis=-1)
+        u = np.asarray(u, dtype=float)
+        rows = np.ascontiguousarray(u.reshape(-1, u.shape[-1]))
+        return kernels.iir_rows(np.asarray(self.b, float), np.asarray(self.a, float), rows).reshape(u.shape)
 
     def free_responses(self, n: int) -> np.ndarray:
         """[S, N] ``C Phi^k e_i`` for each state i: the output of an initial state, sample by sample."""

@@ -59,6 +59,15 @@ def test_transfer_function_is_the_simulators_discretisation(dyn):
         state = tf.phi @ state
 
 
+@pytest.mark.parametrize("dyn", [Dynamics(), Dynamics(30.0, 3.3, 7.0)])
+def test_a_batch_of_inputs_goes_through_the_process_as_scipys_lfilter_filters_it(dyn):
+    from scipy.signal import lfilter
+
+    tf = transfer_function(dyn, 1.0)
+    u = np.random.default_rng(1).standard_normal((3, 4, 200))
+    np.testing.assert_allclose(tf.response(u), lfilter(tf.b, tf.a, u, axis=-1), rtol=1e-12, atol=1e-12)
+
+
 def test_exact_parameters_reproduce_a_noise_free_loop():
     """The valve model's landings and the plant's response explain a clean record to rounding."""
     spec = LoopSpec(33.2, 19.4, extensions=Extensions(dead_time_s=2.6))
