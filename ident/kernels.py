@@ -1,5 +1,7 @@
 """The sequential recursions of the fits, compiled: the valve's walk and the optimal segmentation;
-the PI controller's least squares, which the agent runs on every window; and the process's
+the PI controller's least squares, which the agent runs on every window; the stem's regressors
+from a set of slips (``path_regressors``: piece by piece, where numpy's gathers and cumulative sums
+cost a quarter of a diagnosis); and the process's
 difference equation (``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every
 command half a second).
 
@@ -234,3 +236,44 @@ def iir_rows(b, a, x):
         for r in range(rows):
             yt[k, r] /= a[0]
     return np.ascontiguousarray(yt.T)
+
+
+@njit(cache=True, nogil=True)
+def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
+    """[V, 4, n] regressors of each slip set (rows ``at``, ``d``, ``breaks``, ``landing`` [V, M], the
+    first ``counts[v]`` real, ``at`` increasing), as ``ident.valve_model.path_regressors_many`` says:
+    a piece per slip, its coefficients chained from the last slip at a held drive (or the level before
+    the first slip); then each slip's interval, the old position until the break, less the slip's
+    ``slip_share`` of the interval (last slip first: each reads its predecessor's sample unchanged)."""
+    v_count = at.shape[0]
+    out = np.zeros((v_count, 4, n))
+    coef = np.empty((at.shape[1] + 1, 4))
+    for v in range(v_count):
+        m = counts[v]
+        coef[0, 0], coef[0, 1], coef[0, 2], coef[0, 3] = 0.0, 0.0, 0.0, 1.0
+        last, crossing, at_last = -1, 0.0, 0.0
+        for j in range(m):
+            if breaks[v, j] <= 0:
+                last, at_last = j, crossing
+            else:
+                crossing += d[v, j]
+            if last >= 0:
+                coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = landing[v, last], -d[v, last], 0.0
+            else:
+                coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = 0.0, 0.0, 1.0
+            coef[j + 1, 2] = crossing - at_last
+        piece = 0
+        for k in range(n):
+            while piece < m and at[v, piece] <= k:
+                piece += 1
+            for row in range(4):
+                out[v, row, k] = coef[piece, row]
+        if snapshot:
+            continue
+        for j in range(m - 1, -1, -1):
+            k = at[v, j]
+            if 0 < k < n:
+                share = breaks[v, j] + slip_share
+                for row in range(4):
+                    out[v, row, k] -= share * (out[v, row, k] - out[v, row, k - 1])
+    return out

@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from stiction.ident import kernels
 from stiction.ident.objective import project_out
 from stiction.ident.process import Dynamics, TransferFunction
 from stiction.ident.record import Record
@@ -142,44 +143,16 @@ def path_regressors(slips: Slips, n: int, ts_s: float, snapshot: bool = False) -
 def path_regressors_many(many: list[Slips], n: int, ts_s: float, snapshot: bool = False) -> np.ndarray:
     """[V, 4, N] ``path_regressors`` of every slip set at once (the searches fit dozens a step): each
     slip's piece runs from the last slip at a held drive (or the level before the first slip) on, plus
-    the jumps of the slips at a moving drive since then.
-
-    The sets are padded to the longest with slips at ``n``, past the record: they come after every
-    real slip, so no piece the record reaches and no chain before them changes."""
+    the jumps of the slips at a moving drive since then.  Compiled (``ident.kernels.path_regressors``);
+    the tests hold it to a slip-by-slip transcription."""
     v_count, m = len(many), max((s.at.size for s in many), default=0)
     at = np.full((v_count, m), n, np.int64)
     d, breaks, landing = np.zeros((v_count, m)), np.zeros((v_count, m)), np.zeros((v_count, m))
+    counts = np.zeros(v_count, np.int64)
     for v, s in enumerate(many):
-        k = s.at.size
+        k = counts[v] = s.at.size
         at[v, :k], d[v, :k], breaks[v, :k], landing[v, :k] = s.at, s.directions, s.breaks, s.landing_drive
-    held = breaks <= 0
-    last_held = np.maximum.accumulate(np.where(held, np.arange(m), -1), axis=1)
-    crossing = np.cumsum(np.where(held, 0.0, d), axis=1)
-    base = np.maximum(last_held, 0)
-    from_held = last_held >= 0
-    at_last = np.where(from_held, np.take_along_axis(crossing, base, 1), 0.0)
-    coef = np.zeros((v_count, m + 1, 4))
-    coef[:, 0, 3] = 1.0
-    coef[:, 1:, 0] = np.where(from_held, np.take_along_axis(landing, base, 1), 0.0)
-    coef[:, 1:, 1] = np.where(from_held, -np.take_along_axis(d, base, 1), 0.0)
-    coef[:, 1:, 2] = crossing - at_last
-    coef[:, 1:, 3] = np.where(from_held, 0.0, 1.0)
-    # each sample's piece: how many of its set's slips are at or before it (the pads at n count nowhere)
-    rows = np.arange(v_count)[:, None]
-    counts = np.bincount((at + rows * (n + 1)).ravel(), minlength=v_count * (n + 1)).reshape(v_count, n + 1)
-    piece = np.cumsum(counts[:, :n], axis=1)
-    flat = np.ascontiguousarray(coef.transpose(0, 2, 1)).ravel()  # [V, 4, M + 1]
-    r = flat[(np.arange(v_count * 4).reshape(v_count, 4, 1) * (m + 1)) + piece[:, None, :]]
-    if snapshot:
-        return r
-    # the slip's interval: the old position until the break, then the new one, less the slip's own
-    # deficit; a pad (or a slip at 0) rewrites sample 0 unchanged
-    moving = (at > 0) & (at < n)
-    at_flat = np.arange(v_count * 4).reshape(v_count, 4, 1) * n + np.where(moving, at, 0)[:, None, :]
-    out = r.reshape(-1)
-    now, before = out[at_flat], out[np.where(moving[:, None, :], at_flat - 1, at_flat)]
-    out[at_flat] = now - np.where(moving, breaks + SLIP_S / ts_s, 0.0)[:, None, :] * (now - before)
-    return r
+    return kernels.path_regressors(at, d, breaks, landing, counts, int(n), SLIP_S / ts_s, bool(snapshot))
 
 
 @dataclass(frozen=True)
