@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stiction.detect.features import evidence
-from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
+from stiction.detect.verdict import DETECTOR_FILE, STEP_AT, Detector, fit_logistic, fit_stuck_rule  # noqa: F401 (DETECTOR_FILE re-exported)
 from stiction.sim.grid import random_loops
 from stiction.sim.loop import simulate
 from stiction.sim.plant_families import FAMILIES, family_loops, simulate_families, stable
@@ -29,7 +29,6 @@ LOOK_ALIKE_CLASS = {
 }
 """The look-alike a family cause stands for in the report's ``likely_cause``."""
 OTHERS = ("external_oscillation", "tuning", "quantization", "noise")
-DETECTOR_FILE = "detector.json"
 SIM_SEED = 7
 """Offset of the detector's simulated training seed; ``bench detect`` evaluates on other seeds."""
 N_PER_CAUSE = 20

@@ -22,6 +22,8 @@ from scipy.optimize import minimize
 
 from stiction.detect.features import NAMES, Evidence
 
+DETECTOR_FILE = "detector.json"
+"""The detector's weights beside the other models (``quantify.predictor.DEFAULT_MODELS_DIR``)."""
 STICTION_AT = 0.5
 """Stiction probability from which the verdict is ``stiction``: the threshold of the best balanced
 accuracy on simulated families held out (``stiction bench detect``: the detector trained on every

@@ -20,8 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from stiction.detect import features
-from stiction.detect.training import DETECTOR_FILE
-from stiction.detect.verdict import Detector, decide
+from stiction.detect.verdict import DETECTOR_FILE, Detector, decide
 from stiction.ident import controller
 from stiction.ident.checks import blocking, data_checks
 from stiction.quantify import inlpca, policy

@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.signal import lfilter
 
 Shape = Literal["sine", "gaussian", "brownian"]
 Where = Literal["input", "output"]
@@ -58,6 +57,8 @@ def unit_shape(
     white = rng.standard_normal(n_samples)
     if shape == "gaussian":
         return white
+    from scipy.signal import lfilter  # here: its import costs every process that only names this module half a second
+
     coloured = lfilter([1.0], kasdin_ar_coefficients(2.0), white)
     coloured = coloured - coloured.mean()
     return coloured / np.sqrt(np.mean(coloured**2))
