@@ -129,10 +129,12 @@ def test_bad_windows_are_refused_with_the_reason(quantifier, window, message):
 @pytest.mark.parametrize(
     ("modules", "forbidden"),
     [
-        # the pipeline: no torch, no network, no viewer, no control-systems toolbox
+        # the pipeline: no torch, no network, no viewer, no control-systems toolbox, no training sets
+        # and no scipy.signal (its import, with scipy.stats, cost every process 25 MB and half a second)
         (
             "stiction.quantify.pipeline, stiction.quantify.analysis, stiction.bridge.historian",
-            ("torch", "zenoh", "rerun", "control"),
+            ("torch", "zenoh", "rerun", "control", "stiction.detect.training", "stiction.sim.plant_families",
+             "scipy.signal"),
         ),
         # the agent's core names its types without the models, onnxruntime, the simulator or the command line
         ("stiction.agent.core", ("onnxruntime", "stiction.sim", "stiction.cli", "scipy", "zenoh", "torch")),
