@@ -157,8 +157,9 @@ def fit_valve(
     search: str = "full",
     start: tuple[float, float, float] | None = None,
 ) -> ValveFit:
-    """The valve-model fit under ``hyp`` (``_anchored_fit``); behind a sensor lag, in a full search, also
-    with the read slips' times refined (``_slip_times_refined``), whichever the criterion prefers.
+    """The valve-model fit under ``hyp`` (``_anchored_fit``); behind a sensor lag or a dead time, in a full
+    search, also with the read slips' times refined (``_slip_times_refined``), whichever the criterion
+    prefers (with a dead time as well, a dead time would lose to a sensor lag by the search alone).
 
     A sensor's lag smears each slip over several samples of PV, and the slips read through its inverse
     land a sample or two off (on 8 sensor-lag loops of the wide draws at seed 555, 0-60 % of them more
