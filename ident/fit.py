@@ -190,6 +190,7 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
     tf = transfer_function(hyp.dynamics, record.ts_s)
     q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
+    given = path
     if hyp.gain_free and process_sign(record.op_pct, record.pv_pct) < 0:  # as ``_anchored_fit`` reads them
         path = StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
     at = np.asarray(path.slips, int).copy()
@@ -214,11 +215,7 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
                 at[i], changed = k, True
         if not changed:
             break
-    if np.array_equal(at, path.slips):
-        return None
-    return StemPath(at, path.directions, path.levels, path.noise_sd) if not (
-        hyp.gain_free and process_sign(record.op_pct, record.pv_pct) < 0
-    ) else StemPath(at, -path.directions, -path.levels, path.noise_sd)
+    return None if np.array_equal(at, given.slips) else given.with_slips(at)
 
 
 def _anchored_fit(
