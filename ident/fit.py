@@ -190,9 +190,7 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
     tf = transfer_function(hyp.dynamics, record.ts_s)
     q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-    given = path
-    if hyp.gain_free and process_sign(record.op_pct, record.pv_pct) < 0:  # as ``_anchored_fit`` reads them
-        path = StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
+    given, path = path, _as_the_process_reads(record, hyp, path)
     at = np.asarray(path.slips, int).copy()
     for _ in range(SLIP_SWEEPS):
         bounds = np.concatenate([[0], at, [record.n]])  # a slip stays between its neighbours, inside the record
@@ -216,6 +214,14 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
         if not changed:
             break
     return None if np.array_equal(at, given.slips) else given.with_slips(at)
+
+
+def _as_the_process_reads(record: Record, hyp: Hypothesis, path: StemPath) -> StemPath:
+    """``path`` with its slips' directions and levels flipped where the gain is free and the process
+    reverse-acting (PV falls as the stem opens: the slips read from PV are the stem's, mirrored)."""
+    if hyp.gain_free and process_sign(record.op_pct, record.pv_pct) < 0:
+        return StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
+    return path
 
 
 def _anchored_fit(
@@ -249,11 +255,8 @@ def _anchored_fit(
         g_se = float(np.sqrt(fit.cov[0, 0])) if hyp.gain_free else 0.0
         empty = Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
         return ValveFit(hyp, empty, fit, g, g_se, 0.0, 0.0, np.nan, tf, 0.0, 0.0)
+    path = _as_the_process_reads(record, hyp, path)
     read = Slips.from_path(path, drive)
-    sign = process_sign(record.op_pct, record.pv_pct) if hyp.gain_free else 1
-    if sign < 0:  # a reverse-acting process: PV falls as the stem opens; the slips read from PV flip
-        path = StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
-        read = Slips.from_path(path, drive)
     best = _finish(record, hyp, read, tf, q, nominal_gain)
     if search != "read" and read.at.size and hyp.osc_period_s:
         # an external load the segmentation cut into steps leaves slips where the stem never moved:
