@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stiction.detect.features import evidence
-from stiction.detect.verdict import DETECTOR_FILE, STEP_AT, Detector, fit_logistic, fit_stuck_rule  # noqa: F401 (DETECTOR_FILE re-exported)
+from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
 from stiction.sim.grid import random_loops
 from stiction.sim.loop import simulate
 from stiction.sim.plant_families import FAMILIES, family_loops, simulate_families, stable

@@ -81,6 +81,7 @@ def train_detector(args: argparse.Namespace) -> int:
     from stiction.bench.measured import labelled_exports
     from stiction.detect import training
     from stiction.detect.features import evidence
+    from stiction.detect.verdict import DETECTOR_FILE
     from stiction.quantify.predictor import DEFAULT_MODELS_DIR
 
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
@@ -108,8 +109,8 @@ def train_detector(args: argparse.Namespace) -> int:
     )
     detector = training.train(sim, np.array(mx) if mx else None, sticky, tags, trained_on, np.array(oscillating, bool))
     models_dir.mkdir(parents=True, exist_ok=True)
-    detector.save(models_dir / training.DETECTOR_FILE)
-    print(f"detector written to {models_dir / training.DETECTOR_FILE}: {trained_on}")
+    detector.save(models_dir / DETECTOR_FILE)
+    print(f"detector written to {models_dir / DETECTOR_FILE}: {trained_on}")
     return 0
 
 

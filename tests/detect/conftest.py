@@ -28,8 +28,7 @@ def measured_evidence(plant_dir):
 @pytest.fixture(scope="module")
 def detector():
     """The shipped detector."""
-    from stiction.detect.training import DETECTOR_FILE
-    from stiction.detect.verdict import Detector
+    from stiction.detect.verdict import DETECTOR_FILE, Detector
     from stiction.quantify.predictor import DEFAULT_MODELS_DIR
 
     return Detector.load(DEFAULT_MODELS_DIR / DETECTOR_FILE)

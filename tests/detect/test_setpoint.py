@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from stiction.detect.features import evidence
-from stiction.detect.training import DETECTOR_FILE
-from stiction.detect.verdict import STEP_AT, STICTION_AT, Detector, decide
+from stiction.detect.verdict import DETECTOR_FILE, STEP_AT, STICTION_AT, Detector, decide
 from stiction.quantify.predictor import DEFAULT_MODELS_DIR
 
 STEPS = ((0.3, 2.0), (0.65, -2.0))
