@@ -70,23 +70,30 @@ def _share_called(faults: np.ndarray, called: np.ndarray, cycling: np.ndarray) -
             "cycling": float(np.mean(cycling[faults]))}  # fmt: skip
 
 
-def _family_set(n_per_cause: int, seed: int, bands: str):
+def _family_set(n_per_cause: int, seed: int, bands: str, samples: int | None = None):
     from stiction.detect.features import evidence
-    from stiction.sim.plant_families import family_loops, simulate_families, stable
+    from stiction.sim.plant_families import WINDOW_SAMPLES, family_loops, simulate_families, stable
 
     loops = family_loops(n_per_cause, seed, bands=bands)
     rows = []
-    for loop, rec in zip(loops, simulate_families(loops), strict=True):
+    for loop, rec in zip(loops, simulate_families(loops, samples=samples or WINDOW_SAMPLES), strict=True):
         if stable(rec):
             rows.append((loop, rec, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), _blocked(rec.op, rec.pv)))
     return rows
 
 
 def bench_detect(
-    measured: list[Path], n_per_class: int = 20, seed: int = 2026, train_per_class: int = 20, bands: str = "plant"
+    measured: list[Path],
+    n_per_class: int = 20,
+    seed: int = 2026,
+    train_per_class: int = 20,
+    bands: str = "plant",
+    samples: int | None = None,
 ) -> dict:
     """``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
-    ``bands``: the scale of the judged sticky valves' bands (``sim.plant_families.BANDS``).  The detectors
+    ``bands``: the scale of the judged sticky valves' bands (``sim.plant_families.BANDS``); ``samples``: the
+    judged records' length (default the training windows', ``sim.plant_families.WINDOW_SAMPLES``: the same
+    loops recorded longer, as exports and the agent's windows hold them).  The detectors
     are trained as the shipped one is, on the thesis's bands: judged on plant-scale bands, the figures say
     how the verdict carries to valves smaller than it was trained on."""
     from stiction.bench.measured import labelled_exports
@@ -97,10 +104,10 @@ def bench_detect(
 
     t0 = time.perf_counter()
     sim = training.simulated_set(train_per_class, SIM_SEED)
-    out: dict = {"bands": bands, "families": {}, "measured": {}}
+    out: dict = {"bands": bands, "samples": samples, "families": {}, "measured": {}}
 
     t1 = time.perf_counter()
-    rows = _family_set(n_per_class, seed, bands)
+    rows = _family_set(n_per_class, seed, bands, samples)
     out["seconds_per_window"] = (time.perf_counter() - t1) / max(len(rows), 1)
     family = np.array([r[0].family for r in rows])
     truth = np.array([r[1].shows_fault for r in rows])
@@ -179,8 +186,9 @@ def print_table(fig: dict) -> None:
     from stiction.detect.verdict import LEANS_AT, STICTION_AT
 
     bands = {"plant": "plant-scale bands (S 0.5-10 % of span)", "thesis": "the thesis's bands (S 5-48 % of span)"}
+    length = f", records of {fig['samples']} samples" if fig.get("samples") else ""
     print(f"simulated families, leave-one-family-out (trained on the others, the thesis's bands; judged on "
-          f"{bands[fig.get('bands', 'thesis')]}): sensitivity / specificity, balanced accuracy")  # fmt: skip
+          f"{bands[fig.get('bands', 'thesis')]}{length}): sensitivity / specificity, balanced accuracy")  # fmt: skip
     print(f"{'family':10s}{'n':>5s}{'fault':>6s}" + "".join(f"{m:>19s}" for m in METHODS) + "   cannot tell")
     for f, row in fig["families"].items():
         cells = "".join(

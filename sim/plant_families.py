@@ -108,8 +108,10 @@ def _process(rng: np.random.Generator, family: str, aggressive: float | None) ->
     if kind == "flow":
         tau, dead, every = float(rng.uniform(1.0, 10.0)), float(rng.uniform(0.0, 2.0)), int(rng.choice([1, 2]))
     elif kind == "slow":
-        tau, dead, every = float(np.exp(rng.uniform(np.log(20), np.log(200)))), float(rng.uniform(2.0, 30.0)), int(
-            rng.choice([5, 10, 30, 60])
+        tau, dead, every = (
+            float(np.exp(rng.uniform(np.log(20), np.log(200)))),
+            float(rng.uniform(2.0, 30.0)),
+            int(rng.choice([5, 10, 30, 60])),
         )
     else:
         tau, dead, every = None, float(rng.uniform(0.0, 8.0)), int(rng.choice([1, 2, 5, 10]))
@@ -250,20 +252,24 @@ def stuck_events(op: np.ndarray, mv: np.ndarray, s_pct: float) -> int:
     return events
 
 
-def simulate_families(loops: list[FamilyLoop], warmup_windows: float = 1.0) -> list[FamilyRecord]:
-    """Each loop's recorded window (``WINDOW_SAMPLES`` samples after a warm-up) and its label."""
+def simulate_families(
+    loops: list[FamilyLoop], warmup_windows: float = 1.0, samples: int = WINDOW_SAMPLES
+) -> list[FamilyRecord]:
+    """Each loop's recorded window (``samples`` samples after a warm-up of ``warmup_windows`` times
+    ``WINDOW_SAMPLES``) and its label.  The loops are the same at any ``samples`` (their loads' periods
+    were drawn for ``WINDOW_SAMPLES``): a longer record of the same loop, as an export holds."""
     out: list = [None] * len(loops)
     for every, idx in by_sample_interval(loops).items():
-        n = int(WINDOW_SAMPLES * every * (1 + warmup_windows))
+        n = int((samples + WINDOW_SAMPLES * warmup_windows) * every)
         t_s = np.arange(n, dtype=float)
-        start = n - WINDOW_SAMPLES * every
+        start = n - samples * every
         w, z, moves = (np.zeros((len(idx), n)) for _ in range(3))
         for row, i in enumerate(idx):
             rng = np.random.default_rng(loops[i].spec.seed)
             w[row] = _load(loops[i], t_s, rng)
             z[row] = _noise(loops[i], n, rng)
             for share, step_pct in loops[i].sp_steps:
-                moves[row, start + int(share * WINDOW_SAMPLES * every) :] += step_pct
+                moves[row, start + int(share * samples * every) :] += step_pct
         op, pv, mv = run_batch(build_batch([loops[i].spec for i in idx]), w, z - moves)
         pv = pv + moves
         keep = slice(start + every - 1, n, every)

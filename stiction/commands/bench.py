@@ -114,6 +114,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="plant",
         help="the held-out sticky valves' bands: plant-scale (S 0.5-10 %% of span) or the thesis's (S 5-48 %%)",
     )
+    t.add_argument(
+        "--samples",
+        type=int,
+        default=None,
+        help="length of the held-out records (default 600, the training windows'): the same loops recorded longer",
+    )
     t.add_argument("--json", action="store_true")
     z = sub.add_parser("sizing", help="S and J on simulated plant-like sticky loops, as quantify reports them")
     z.add_argument("--loops", type=int, default=60, help="simulated plant-like loops per class (the sticky ones run)")
@@ -179,7 +185,9 @@ def _detect(args) -> None:
     _existing(args.measured)
     if args.loops < 1:
         raise InputError(f"--loops {args.loops}: need at least 1")
-    fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands)
+    if args.samples is not None and args.samples < 100:
+        raise InputError(f"--samples {args.samples}: need at least 100")
+    fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands, samples=args.samples)
     _emit(args, _host(fig), print_table)
 
 
