@@ -12,17 +12,23 @@ from stiction.detect import bicoherence, horch, kernels, oscillation, setpoint, 
 
 NAMES = (
     "regularity_log",
-    "cycles_log",
+    "cycles_ref_log",
     "horch_phase",
     "shape_op",
     "shape_pv",
-    "ngi",
-    "nli",
+    "bic_excess",
+    "bic_peak_excess",
     "pv_jump_share",
     "op_jump_share",
     "pv_still_share",
     "pv_kurtosis_log",
 )
+REF_SAMPLES = 600
+"""The cycles feature counts the cycles a window of this many samples holds (the simulated windows'
+length): a count over the window itself grows with the window, and a detector trained on windows of
+600 samples read a long record's many cycles as an external oscillation (held-out families' sticky
+limit cycles over 1,800 samples: level 74 -> 51 % called).  Every feature reads the loop, not the
+window's length."""
 EDGE_MEDIAN = 5
 """Median filter width (samples) that removes noise and keeps a slip's edge."""
 TOP_SHARE = 0.05
@@ -137,12 +143,12 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended) -> Evid
     vector = np.array(
         [
             np.log(min(max(osc.regularity, 1e-2), 1e3)),
-            np.log1p(osc.cycles),
+            np.log1p(osc.cycles * REF_SAMPLES / max(op.size, 1)),
             h.phase if np.isfinite(h.phase) else 0.5,
             si_op if np.isfinite(si_op) else 0.5,
             si_pv if np.isfinite(si_pv) else 0.5,
-            np.clip(b.ngi, -0.5, 0.5) if np.isfinite(b.ngi) else 0.0,
-            np.clip(b.nli, 0, 1) if np.isfinite(b.nli) else 0.0,
+            np.clip(b.excess, -0.5, 0.5) if np.isfinite(b.excess) else 0.0,
+            np.clip(b.peak_excess, -1, 1) if np.isfinite(b.peak_excess) else 0.0,
             _jump_share(edges_pv),
             _jump_share(edges_op),
             _still_share(edges_pv, pv, op),

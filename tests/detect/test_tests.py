@@ -61,6 +61,22 @@ def test_bicoherence_calls_gaussian_noise_linear_and_a_phase_coupled_signal_nonl
     assert bicoherence.test(sawtooth + 0.05 * rng.standard_normal(t.size)).nonlinear
 
 
+def test_bicoherence_excess_reads_a_linear_signal_as_zero_at_any_length():
+    """Choudhury's NGI of a linear signal is about -2/K over K segments (it follows the window's length);
+    the excesses over the null's own expectation stay near 0 from 600 to 3,600 samples, and a phase-coupled
+    signal stands out at both lengths."""
+    rng = np.random.default_rng(4)
+    for n in (600, 3600):
+        linear = [bicoherence.test(np.convolve(rng.standard_normal(n), [1, 0.8, 0.5], "same")) for _ in range(20)]
+        assert abs(np.median([b.excess for b in linear])) < 0.01
+        assert abs(np.median([b.peak_excess for b in linear])) < 0.05
+        t = np.arange(float(n))
+        coupled = bicoherence.test((t / 40.0) % 1.0 + 0.05 * rng.standard_normal(n))
+        assert coupled.excess > 0.05 and coupled.peak_excess > 0.2
+    short, long = (bicoherence.test(rng.standard_normal(n)).ngi for n in (600, 3600))
+    assert short < long - 0.1  # what the excess corrects
+
+
 def test_ellipse_band_is_the_plot_width_at_mean_pv():
     t = np.linspace(0, 20 * np.pi, 4000, endpoint=False)
     a, b, phase = 3.0, 1.0, 0.4
