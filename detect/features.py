@@ -28,7 +28,10 @@ REF_SAMPLES = 600
 length): a count over the window itself grows with the window, and a detector trained on windows of
 600 samples read a long record's many cycles as an external oscillation (held-out families' sticky
 limit cycles over 1,800 samples: level 74 -> 51 % called).  Every feature reads the loop, not the
-window's length."""
+window's length.  No fewer than ``oscillation.MIN_CYCLES`` for a window that holds that many: an
+oscillating training window held at least two, and a slow cycle of a long record read as less
+(0.7 a 600 samples) lay outside what the models were fitted on, where the cycle model called a
+sluggish level loop's wander sticky (an independent simulator's look-alikes, 2 of 12 -> 1 of 12)."""
 EDGE_MEDIAN = 5
 """Median filter width (samples) that removes noise and keeps a slip's edge."""
 TOP_SHARE = 0.05
@@ -143,7 +146,7 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended) -> Evid
     vector = np.array(
         [
             np.log(min(max(osc.regularity, 1e-2), 1e3)),
-            np.log1p(osc.cycles * REF_SAMPLES / max(op.size, 1)),
+            np.log1p(max(osc.cycles * REF_SAMPLES / max(op.size, 1), min(osc.cycles, oscillation.MIN_CYCLES))),
             h.phase if np.isfinite(h.phase) else 0.5,
             si_op if np.isfinite(si_op) else 0.5,
             si_pv if np.isfinite(si_pv) else 0.5,
