@@ -18,6 +18,12 @@ from stiction.ident.valve_model import ValveFit
 from stiction.schemas import diagnosis as schema
 
 WORSE_SHARE = 0.05
+PLAUSIBLE_GAIN = 10.0
+"""A self-regulating process gain (% of PV's span per % of travel) above which the report doubts the fit:
+the valve's whole stroke would move PV ten spans, and a loop's operating range would sit within a tenth
+of the travel.  The simulated plant loops draw 0.3-3; a fit that reads far more explains PV by stem moves
+too small to be the valve's (a measured flow loop read 112 with a band of 2.3 %).  Physics, not tuned on
+the measured windows."""
 """An extended model whose simulated error exceeds the canonical's by more than this share is flagged."""
 
 
@@ -101,6 +107,24 @@ def _without_friction(f: Friction) -> Friction:
     return Friction(nan, nan, nan, nan, nan, nan, nan, nan, f.slips_read)
 
 
+def _doubts(f: Friction, process: schema.Process) -> list[str]:
+    """What makes a band read doubtful though the fit gives it: an interval that holds no band at all,
+    and a process gain no valve loop has."""
+    out = []
+    if math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and f.s_pct - 2 * f.s_se_pct <= 0:
+        out.append(
+            f"the band S {f.s_pct:.2g} +- {f.s_se_pct:.2g} % of span: its interval of two standard errors holds "
+            "0, a band the data cannot tell from none; not a valve job on this evidence alone"
+        )
+    if process.kind == "self_regulating" and process.gain > PLAUSIBLE_GAIN:
+        out.append(
+            f"the fit's process gain is {process.gain:.3g} % of span per % of travel: the valve's whole stroke "
+            f"would move PV {process.gain:.3g} spans; a fit that explains PV by stem moves this small reads "
+            "its band under a doubtful process: read S and J with care"
+        )
+    return out
+
+
 def diagnosis_report(
     loop_id: str,
     record: Record,
@@ -155,6 +179,9 @@ def diagnosis_report(
             f"simulates it from OP worse than the canonical model ({base_error:.3g} -> {extended_error:.3g} % of "
             "span): its causes fit the loop's short-term dynamics, not the record's course; read them with care"
         )
+    process = process_out(d.extended, record)
+    if not withheld:
+        notes += _doubts(f, process)
     if d.linear_valve_delta <= 0 and not d.notes and not blocking(problems):
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
@@ -182,7 +209,7 @@ def diagnosis_report(
         gain_pct=d.gain_pct(record),
         **friction_out(f).model_dump(),
         base_friction=friction_out(base_friction),
-        process=process_out(d.extended, record),
+        process=process,
         stiction_delta_criterion=float(d.linear_valve_delta),
         slips=int(d.extended.fit.slips.at.size),
         uses_mv=valve_check is not None,

@@ -1,0 +1,36 @@
+"""A band the fit reads but the report doubts: an interval of two standard errors that holds no band,
+and a process gain no valve loop has (``ident.report._doubts``); a clear band under a plausible
+process raises neither."""
+
+from stiction.ident.friction import Friction
+from stiction.ident.report import PLAUSIBLE_GAIN, _doubts
+from stiction.schemas.diagnosis import Process
+
+
+def _friction(s_pct: float, s_se_pct: float) -> Friction:
+    return Friction(s_pct, 0.5, s_se_pct, 0.1, 2 * s_pct, s_pct, s_se_pct, 0.2, 12)
+
+
+def _process(kind: str, gain: float) -> Process:
+    tau_s = 6.0 if kind == "self_regulating" else None
+    return Process(kind=kind, gain=gain, gain_se=None, time_constant_s=tau_s, dead_time_s=0.0, sensor_tau_s=0.0,
+                   actuator_tau_s=0.0, sample_time_s=10.0, description="")  # fmt: skip
+
+
+def test_a_band_whose_interval_holds_zero_is_said_to_be_indistinguishable_from_none():
+    said = _doubts(_friction(0.12, 0.54), _process("self_regulating", 1.2))
+    assert len(said) == 1 and "cannot tell from none" in said[0]
+    assert _doubts(_friction(2.0, 0.4), _process("self_regulating", 1.2)) == []
+
+
+def test_a_process_gain_no_valve_loop_has_is_doubted_where_it_is_a_static_gain():
+    said = _doubts(_friction(2.3, 0.75), _process("self_regulating", 112.0))
+    assert len(said) == 1 and "112 % of span per % of travel" in said[0]
+    assert _doubts(_friction(2.3, 0.75), _process("self_regulating", 0.9 * PLAUSIBLE_GAIN)) == []
+    # an integrating process's gain is a rate (%/s per %): another unit, not judged by this bound
+    assert _doubts(_friction(2.3, 0.75), _process("integrating", 112.0)) == []
+
+
+def test_a_withheld_band_raises_no_doubt():
+    nan = float("nan")
+    assert _doubts(Friction(nan, nan, nan, nan, nan, nan, nan, nan, 0), _process("self_regulating", 1.0)) == []
