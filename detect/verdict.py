@@ -189,7 +189,10 @@ class Detector:
     def load(cls, path: Path) -> Detector:
         body = json.loads(Path(path).read_text())
         if tuple(body.get("features", ())) != NAMES:
-            raise ValueError(f"{path}: detector trained on features {body.get('features')}, this code computes {NAMES}")
+            raise ValueError(
+                f"{path}: detector trained on features {body.get('features')}, this code computes {NAMES}: "
+                "retrain it (stiction train --detector)"
+            )
         rules = [body.get(k) for k in ("stuck_ramp", "stuck_step")]
         ramp, step = (StuckRule(float(r["at"]), float(r["probability"])) if r else None for r in rules)
         stiction, cause = Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"])

@@ -26,7 +26,7 @@ from stiction.ident.checks import blocking, data_checks
 from stiction.quantify import inlpca, policy
 from stiction.quantify.analysis import analyse_where
 from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
-from stiction.quantify.predictor import DEFAULT_MODELS_DIR, load_models, model_version
+from stiction.quantify.predictor import DEFAULT_MODELS_DIR, ModelError, load_models, model_version
 from stiction.quantify.window import Reading, Window
 from stiction.schemas.report import StictionReport
 
@@ -74,7 +74,12 @@ class Quantifier:
         self.thesis, self.cycle = load_models(models_dir)
         self.model_version = model_version(self.thesis, self.cycle)
         own = Path(models_dir) / DETECTOR_FILE if models_dir is not None else None
-        self.detector = Detector.load(own if own is not None and own.is_file() else DEFAULT_MODELS_DIR / DETECTOR_FILE)
+        path = own if own is not None and own.is_file() else DEFAULT_MODELS_DIR / DETECTOR_FILE
+        try:
+            self.detector = Detector.load(path)
+        except (ValueError, KeyError) as e:  # a file of another version, or not a detector's
+            said = str(e) if str(path) in str(e) else f"{path}: not a detector file ({e.__class__.__name__}: {e})"
+            raise ModelError(said) from None
         self.cpu_s = dict.fromkeys(STAGES, 0.0)
         """CPU seconds of the calling thread in each stage, summed over every window quantified (the
         agent's profile: ``stiction bench throughput`` prints it)."""

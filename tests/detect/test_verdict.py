@@ -73,6 +73,24 @@ def test_detector_file_names_the_features_it_was_trained_on(tmp_path, detector):
         Detector.load(path)
 
 
+
+def test_a_models_folder_whose_detector_names_other_features_is_refused_with_a_model_error(tmp_path, detector):
+    import shutil
+
+    from stiction.quantify.pipeline import Quantifier
+    from stiction.quantify.predictor import DEFAULT_MODELS_DIR, ModelError
+
+    for f in list(DEFAULT_MODELS_DIR.glob("*.onnx")) + list(DEFAULT_MODELS_DIR.glob("*.card.json")):
+        shutil.copy(f, tmp_path / f.name)
+    detector.save(tmp_path / "detector.json")
+    body = (tmp_path / "detector.json").read_text()
+    (tmp_path / "detector.json").write_text(body.replace("bic_excess", "ngi"))  # a file trained before 2026-11-25
+    with pytest.raises(ModelError, match="retrain it"):
+        Quantifier(tmp_path)
+    (tmp_path / "detector.json").write_text("not json")
+    with pytest.raises(ModelError, match="detector.json"):
+        Quantifier(tmp_path)
+
 def _slow_loop(fs_pct: float, load_pct: float, seed: int):
     """A sticky valve (fd 0.7 fs) or a linear one under a slow load, under a slow PI (Kc 0.5)."""
     from tests.detect.loops import slow_flow_loop
