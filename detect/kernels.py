@@ -212,11 +212,15 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
 
 @njit(cache=True, nogil=True)
 def step_kurtosis(y):
-    """Kurtosis of ``y``'s steps (3.0 for steps that never vary)."""
+    """Kurtosis of ``y``'s steps (3.0 for steps that never vary, or vary only by the arithmetic's rounding:
+    a straight line's steps, as a historian's compression stores a stretch; ``oscillation.ROUNDING_REL``)."""
     n = y.size - 1
     mean = (y[n] - y[0]) / n
     v = 0.0
     q = 0.0
+    size = 1.0
+    for k in range(n + 1):
+        size = max(size, abs(y[k]))
     for k in range(n):
         x = y[k + 1] - y[k]
         e = (x - mean) * (x - mean)
@@ -224,7 +228,7 @@ def step_kurtosis(y):
         q += e * e
     v /= n
     q /= n
-    return q / (v * v) if v > 0 else 3.0
+    return q / (v * v) if v > (1e-9 * size) ** 2 else 3.0
 
 
 @njit(cache=True, nogil=True)

@@ -66,9 +66,25 @@ class Detrended:
     sd: float
 
 
+ROUNDING_REL = 1e-9
+"""A remainder whose standard deviation is below this share of the signal's size (or of 1) is the
+arithmetic's rounding, not a signal: a straight line, as a historian's compression stores a stretch,
+left remainders of 1e-15 whose zero crossings read as a perfectly regular oscillation, and the
+verdict of such a window changed with an offset added to PV."""
+
+
+def _rounding_only(sd, x) -> np.ndarray:
+    """Whether each remainder's ``sd`` is within the rounding of its signal ``x`` ([N] or [W, N])."""
+    size = np.maximum(1.0, np.max(np.abs(x), axis=-1))
+    return np.asarray(sd) <= ROUNDING_REL * size
+
+
 def detrended(x: np.ndarray) -> Detrended:
     y = detrend(x)
-    return Detrended(y, float(np.std(y)))
+    sd = float(np.std(y))
+    if y.size and _rounding_only(sd, np.asarray(x, float)):
+        return Detrended(np.zeros_like(y), 0.0)
+    return Detrended(y, sd)
 
 
 def detrended_rows(x: np.ndarray) -> list[Detrended]:
@@ -81,6 +97,8 @@ def detrended_rows(x: np.ndarray) -> list[Detrended]:
     centred = x - x.mean(axis=1, keepdims=True)
     y = centred - ((centred @ t) / float(t @ t))[:, None] * t
     sd = y.std(axis=1)
+    flat = _rounding_only(sd, x)
+    y[flat], sd[flat] = 0.0, 0.0
     return [Detrended(y[i], float(sd[i])) for i in range(x.shape[0])]
 
 

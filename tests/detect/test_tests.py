@@ -77,6 +77,30 @@ def test_bicoherence_excess_reads_a_linear_signal_as_zero_at_any_length():
     assert short < long - 0.1  # what the excess corrects
 
 
+
+def test_the_evidence_does_not_change_with_pv_in_other_units_or_offset():
+    """Hidden effect: PV and OP exported in engineering units (scaled, offset), on records a historian
+    compressed into straight stretches.  A straight line's remainder after detrending is rounding noise
+    (1e-15) whose crossings read as a perfectly regular cycle, and whose steps' kurtosis is arbitrary;
+    the evidence must read the same loop whatever the units."""
+    from stiction.detect.features import evidence
+    from stiction.sim.plant_families import family_loops, simulate_families, stable
+
+    loops = [loop for loop in family_loops(2, 999, bands="plant") if loop.compression_pct > 0 or loop.fault][:24]
+    checked = 0
+    for rec in simulate_families(loops):
+        if not stable(rec):
+            continue
+        a = evidence(rec.op, rec.pv, rec.ts_s, rec.sp)
+        for k_op, k_pv, offset in ((3.0, 0.01, 300.0), (1.0, 1.0, 300.0), (0.2, 50.0, -7.0)):
+            b = evidence(rec.op * k_op, rec.pv * k_pv + offset, rec.ts_s, rec.sp * k_pv + offset)
+            assert np.allclose(a.vector, b.vector, atol=1e-6), (k_op, k_pv, offset)
+            assert a.oscillation.oscillating == b.oscillation.oscillating
+        checked += 1
+    assert checked >= 15
+    line = 50 + 0.01 * np.arange(600.0)  # one straight stretch: no oscillation, whatever its offset
+    assert not oscillation.detect(line + 300).oscillating and oscillation.detect(line + 300).regularity == 0
+
 def test_ellipse_band_is_the_plot_width_at_mean_pv():
     t = np.linspace(0, 20 * np.pi, 4000, endpoint=False)
     a, b, phase = 3.0, 1.0, 0.4
