@@ -21,7 +21,11 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     for key in METHODS:
         assert all(0.0 <= m[key][k] <= 1.0 for k in ("accuracy", "sensitivity", "specificity"))
     assert 0 <= m["near_threshold"] <= m["windows"]
+    assert set(fig["two_parameter"]) == {"flow", "level"}  # another simulator, held out from training
+    for row in fig["two_parameter"].values():
+        assert 0 <= row["show_fault"] <= row["n"] and all(0.0 <= row[k]["specificity"] <= 1.0 for k in METHODS)
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
+    assert "another simulator" in out
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
