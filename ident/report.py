@@ -13,17 +13,11 @@ from stiction.ident.friction import Friction
 from stiction.ident.models import Diagnosis, Model, cause_parameters
 from stiction.ident.process import NOMINAL
 from stiction.ident.record import Record
-from stiction.ident.trust import stuck_travel_contradicts, with_model_error
+from stiction.ident.trust import band_doubts, stuck_travel_contradicts, with_model_error
 from stiction.ident.valve_model import ValveFit
 from stiction.schemas import diagnosis as schema
 
 WORSE_SHARE = 0.05
-PLAUSIBLE_GAIN = 10.0
-"""A self-regulating process gain (% of PV's span per % of travel) above which the report doubts the fit:
-the valve's whole stroke would move PV ten spans, and a loop's operating range would sit within a tenth
-of the travel.  The simulated plant loops draw 0.3-3; a fit that reads far more explains PV by stem moves
-too small to be the valve's (a measured flow loop read 112 with a band of 2.3 %).  Physics, not tuned on
-the measured windows."""
 """An extended model whose simulated error exceeds the canonical's by more than this share is flagged."""
 
 
@@ -107,24 +101,6 @@ def _without_friction(f: Friction) -> Friction:
     return Friction(nan, nan, nan, nan, nan, nan, nan, nan, f.slips_read)
 
 
-def _doubts(f: Friction, process: schema.Process) -> list[str]:
-    """What makes a band read doubtful though the fit gives it: an interval that holds no band at all,
-    and a process gain no valve loop has."""
-    out = []
-    if math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and f.s_pct - 2 * f.s_se_pct <= 0:
-        out.append(
-            f"the band S {f.s_pct:.2g} +- {f.s_se_pct:.2g} % of span: its interval of two standard errors holds "
-            "0, a band the data cannot tell from none; not a valve job on this evidence alone"
-        )
-    if process.kind == "self_regulating" and process.gain > PLAUSIBLE_GAIN:
-        out.append(
-            f"the fit's process gain is {process.gain:.3g} % of span per % of travel: the valve's whole stroke "
-            f"would move PV {process.gain:.3g} spans; a fit that explains PV by stem moves this small reads "
-            "its band under a doubtful process: read S and J with care"
-        )
-    return out
-
-
 def diagnosis_report(
     loop_id: str,
     record: Record,
@@ -181,7 +157,7 @@ def diagnosis_report(
         )
     process = process_out(d.extended, record)
     if not withheld:
-        notes += _doubts(f, process)
+        notes += band_doubts(f.s_pct, f.s_se_pct, process)
     if d.linear_valve_delta <= 0 and not d.notes and not blocking(problems):
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"

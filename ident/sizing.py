@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from stiction.ident.trust import band_doubts
 from stiction.schemas.diagnosis import Process
 from stiction.sim.valve import friction_pct, friction_se_pct
 
@@ -45,6 +46,8 @@ class Sizing:
     slips: int
     why: str | None = None
     model_pv_pct: np.ndarray | None = field(default=None, repr=False, compare=False)
+    doubts: tuple[str, ...] = ()
+    """What makes the band read doubtful (``ident.trust.band_doubts``), for the report beside the numbers."""
     """PV as the identified model simulates it from the record's OP (its last samples), for plots."""
 
     @property
@@ -83,7 +86,7 @@ def from_report(report) -> Sizing:
             "separable from the process gain in this record"
         )
         return Sizing(nan, nan, nan, nan, process, slips, why)
-    return Sizing(s, j, s_se, j_se, process, slips)
+    return Sizing(s, j, s_se, j_se, process, slips, doubts=tuple(band_doubts(s, s_se, process)))
 
 
 def _why_not(report) -> str:

@@ -1,5 +1,6 @@
 """What a fitted valve's friction numbers are worth: the model error added to the fit's own standard
-errors, and the stuck-travel check that withholds a band the record contradicts.
+errors, the stuck-travel check that withholds a band the record contradicts, and the doubts a report
+states beside a band it gives (``band_doubts``).
 
 Below both ``ident.report`` (which applies them to every diagnosis) and ``ident.sizing`` (which
 reads a diagnosis's S and J), so that neither imports the other; the figures behind the
@@ -56,3 +57,29 @@ def with_model_error(f):
         fs_se_pct=math.hypot(f.fs_se_pct, model_fs),
         fd_se_pct=math.hypot(f.fd_se_pct, model_fd),
     )
+
+
+PLAUSIBLE_GAIN = 10.0
+"""A self-regulating process gain (% of PV's span per % of travel) above which the report doubts the fit:
+the valve's whole stroke would move PV ten spans, and a loop's operating range would sit within a tenth
+of the travel.  The simulated plant loops draw 0.3-3; a fit that reads far more explains PV by stem moves
+too small to be the valve's (a measured flow loop read 112 with a band of 2.3 %).  Physics, not tuned on
+the measured windows."""
+
+
+def band_doubts(s_pct: float, s_se_pct: float, process) -> list[str]:
+    """What makes a band read doubtful though the fit gives it (``process``: a ``schemas.diagnosis.Process``):
+    an interval of two standard errors that holds no band at all, and a process gain no valve loop has."""
+    out = []
+    if math.isfinite(s_pct) and math.isfinite(s_se_pct) and s_pct - 2 * s_se_pct <= 0:
+        out.append(
+            f"the band S {s_pct:.3g} +- {s_se_pct:.2g} % of span: its interval of two standard errors holds "
+            "0, a band the data cannot tell from none; not a valve job on this evidence alone"
+        )
+    if process is not None and process.kind == "self_regulating" and process.gain > PLAUSIBLE_GAIN:
+        out.append(
+            f"the fit's process gain is {process.gain:.3g} % of span per % of travel: the valve's whole stroke "
+            f"would move PV {process.gain:.3g} spans; a fit that explains PV by stem moves this small reads "
+            "its band under a doubtful process: read S and J with care"
+        )
+    return out

@@ -125,6 +125,7 @@ def assemble(
                 "fs_pct": fs, "fd_pct": fd, "fs_se_pct": fs_se, "fd_se_pct": fd_se,
                 "estimate_t_end_s": sizing_t_end_s,
             }  # fmt: skip
+            tail.extend(sizing.doubts)
             if note:
                 tail.append(note)
     tail.extend(notes)

@@ -1,10 +1,14 @@
 """A band the fit reads but the report doubts: an interval of two standard errors that holds no band,
-and a process gain no valve loop has (``ident.report._doubts``); a clear band under a plausible
+and a process gain no valve loop has (``ident.trust.band_doubts``); a clear band under a plausible
 process raises neither."""
 
 from stiction.ident.friction import Friction
-from stiction.ident.report import PLAUSIBLE_GAIN, _doubts
+from stiction.ident.trust import PLAUSIBLE_GAIN, band_doubts
 from stiction.schemas.diagnosis import Process
+
+
+def _doubts(f: Friction, process: Process) -> list[str]:
+    return band_doubts(f.s_pct, f.s_se_pct, process)
 
 
 def _friction(s_pct: float, s_se_pct: float) -> Friction:
@@ -34,3 +38,16 @@ def test_a_process_gain_no_valve_loop_has_is_doubted_where_it_is_a_static_gain()
 def test_a_withheld_band_raises_no_doubt():
     nan = float("nan")
     assert _doubts(Friction(nan, nan, nan, nan, nan, nan, nan, nan, 0), _process("self_regulating", 1.0)) == []
+
+
+def test_a_sizing_read_from_a_diagnosis_carries_its_doubts():
+    from types import SimpleNamespace
+
+    from stiction.ident.sizing import from_report
+
+    report = SimpleNamespace(s_pct=0.12, j_pct=0.09, s_se_pct=0.54, j_se_pct=0.08, slips=660, warnings=[],
+                             process=_process("self_regulating", 1.2))  # fmt: skip
+    sizing = from_report(report)
+    assert sizing.read and len(sizing.doubts) == 1 and "cannot tell from none" in sizing.doubts[0]
+    report.s_se_pct = 0.05
+    assert from_report(report).doubts == ()

@@ -63,6 +63,9 @@ def test_a_sizing_is_assembled_into_the_draft_and_a_newer_one_replaces_it_withou
     failed = assemble(draft, Sizing(nan, nan, nan, nan, None, 0, "no model"), notes=["export: 3 duplicates"])
     assert failed.warnings[-2:] == [NOT_READ_PREFIX + "no model", "export: 3 duplicates"]
     assert [failed.warnings.count(w) for w in PROCESS_WARNINGS] == [1, 1]
+    doubted = assemble(draft, Sizing(0.3, 0.1, 0.4, 0.1, PROCESS, 6, doubts=("the band S 0.3 +- 0.4 % ...",)), 900.0)
+    assert doubted.s_pct == 0.3 and doubted.warnings[-1] == "the band S 0.3 +- 0.4 % ..."  # said beside the numbers
+    assert "the band S 0.3 +- 0.4 % ..." not in unread.warnings
     # the draft itself is untouched: every assembly starts from the window's facts
     assert assemble(draft) == quantifier.results([unknown])[0].report
 
