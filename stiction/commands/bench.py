@@ -23,9 +23,24 @@ def _plain(x):
     raise TypeError(f"{type(x).__name__} is not JSON")
 
 
+def _finite(x):
+    """``x`` with every number that is not finite (a share of no windows, a median of none) as None:
+    JSON has no NaN, and a dashboard's strict parser refuses the object that holds one."""
+    import math
+
+    x = _plain(x) if not isinstance(x, dict | list | tuple | str | int | float | bool | type(None)) else x
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_finite(v) for v in x]
+    return x
+
+
 def _print_json(figures) -> None:
-    """Every ``bench ... --json`` prints exactly one JSON object."""
-    print(json.dumps(figures, default=_plain), flush=True)
+    """Every ``bench ... --json`` prints exactly one JSON object (strict JSON: not-a-number as null)."""
+    print(json.dumps(_finite(figures), allow_nan=False), flush=True)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
