@@ -88,35 +88,38 @@ def _family_set(n_per_cause: int, seed: int, bands: str, samples: int | None = N
 def _two_parameter_set(n_per_cause: int, seed: int, samples: int | None = None):
     from stiction.detect.features import evidence
     from stiction.sim import two_parameter
+    from stiction.sim.plant_families import stable
 
     loops = two_parameter.draw(n_per_cause, seed)
     rows = []
     for loop, rec in zip(loops, two_parameter.simulate(loops, samples or two_parameter.SAMPLES), strict=True):
-        if np.all(np.isfinite(rec.pv)) and np.ptp(rec.pv) < 100 and np.ptp(rec.op) < 1000:  # unstable tunings out
+        if stable(rec):
             rows.append((loop, rec, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), _blocked(rec.op, rec.pv)))
     return rows
 
 
+def _method_rows(calls: list[dict], truth: np.ndarray, oscillating: np.ndarray, held: np.ndarray) -> dict:
+    """For the windows ``held`` picks: each method's rates, ours on the windows that oscillate regularly
+    (the limit cycles: stiction against an external cycle or tuning), and the counts."""
+    row = {m: _rates(np.array([c[m] for c, h in zip(calls, held, strict=True) if h]), truth[held]) for m in METHODS}
+    ours = np.array([c["ours"] for c in calls])
+    cycling = held & oscillating
+    row["ours_oscillating"] = _rates(ours[cycling], truth[cycling]) | {
+        "n": int(cycling.sum()), "show_fault": int(truth[cycling].sum())}  # fmt: skip
+    row["n"], row["show_fault"] = int(held.sum()), int(truth[held].sum())
+    return row
+
+
 def _judged(rows, detector) -> dict:
     """Each method's rates on ``rows`` (loop, record, evidence, blocked) by kind, ``detector`` for ours."""
-    from stiction.detect.verdict import STICTION_AT
-
-    out = {}
-    for kind in sorted({r[0].kind for r in rows}):
-        mine = [r for r in rows if r[0].kind == kind]
-        x = np.nan_to_num(np.array([r[2].vector for r in mine]))
-        stuck = np.array([r[2].stuck for r in mine])
-        osc = np.array([r[2].oscillation.oscillating for r in mine])
-        p = detector.stiction_probability(x, stuck, osc)
-        truth = np.array([r[1].shows_fault for r in mine])
-        calls = [_calls(r[2], p[i], r[3]) for i, r in enumerate(mine)]
-        row = {m: _rates(np.array([c[m] for c in calls]), truth) for m in METHODS}
-        called = (p >= STICTION_AT) & ~np.array([r[3] for r in mine])
-        row["ours_oscillating"] = _rates(called[osc], truth[osc]) | {"n": int(osc.sum()),
-                                                                      "show_fault": int(truth[osc].sum())}  # fmt: skip
-        row["n"], row["show_fault"] = len(mine), int(truth.sum())
-        out[kind] = row
-    return out
+    x = np.nan_to_num(np.array([r[2].vector for r in rows]))
+    stuck = np.array([r[2].stuck for r in rows])
+    osc = np.array([r[2].oscillation.oscillating for r in rows])
+    p = detector.stiction_probability(x, stuck, osc)
+    truth = np.array([r[1].shows_fault for r in rows])
+    calls = [_calls(r[2], p[i], r[3]) for i, r in enumerate(rows)]
+    kinds = np.array([r[0].kind for r in rows])
+    return {kind: _method_rows(calls, truth, osc, kinds == kind) for kind in sorted(set(kinds))}
 
 
 def bench_detect(
@@ -161,14 +164,10 @@ def bench_detect(
     unsettled = (p >= LEANS_AT) & (p < STICTION_AT)
     for f in FAMILIES:
         held = family == f
-        row = {m: _rates(np.array([c[m] for c, h in zip(calls, held, strict=True) if h]), truth[held]) for m in METHODS}
+        row = _method_rows(calls, truth, osc, held)
         settled = held & ~unsettled
         row["ours_settled"] = _rates(p[settled] >= STICTION_AT, truth[settled])
-        cycling = held & osc  # the limit cycles: stiction against an external cycle or tuning
-        row["ours_oscillating"] = _rates(calls_ours[cycling], truth[cycling]) | {
-            "n": int(cycling.sum()), "show_fault": int(truth[cycling].sum())}  # fmt: skip
         row["cannot_tell"] = float(np.mean(unsettled[held]))
-        row["n"], row["show_fault"] = int(held.sum()), int(truth[held].sum())
         out["families"][f] = row
     out["by_cause"] = {
         cause: {"n": int(sum(m)), "show_fault": float(np.mean(truth[m])), "called": float(np.mean(p[m] >= STICTION_AT))}

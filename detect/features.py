@@ -155,7 +155,7 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended) -> Evid
             _jump_share(edges_pv),
             _jump_share(edges_op),
             _still_share(edges_pv, pv, op),
-            np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv)) + 1e-3),
+            np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv), oscillation.ROUNDING_REL) + 1e-3),
         ]
     )
     steps = setpoint.stuck_steps(edges_op, edges_pv, pv, sp)

@@ -211,9 +211,10 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
 
 
 @njit(cache=True, nogil=True)
-def step_kurtosis(y):
-    """Kurtosis of ``y``'s steps (3.0 for steps that never vary, or vary only by the arithmetic's rounding:
-    a straight line's steps, as a historian's compression stores a stretch; ``oscillation.ROUNDING_REL``)."""
+def step_kurtosis(y, rounding_rel):
+    """Kurtosis of ``y``'s steps (3.0 for steps that never vary, or vary only by the arithmetic's rounding,
+    ``rounding_rel`` of the signal's size: a straight line's steps, as a historian's compression stores a
+    stretch; ``oscillation.ROUNDING_REL``)."""
     n = y.size - 1
     mean = (y[n] - y[0]) / n
     v = 0.0
@@ -228,7 +229,7 @@ def step_kurtosis(y):
         q += e * e
     v /= n
     q /= n
-    return q / (v * v) if v > (1e-9 * size) ** 2 else 3.0
+    return q / (v * v) if v > (rounding_rel * size) ** 2 else 3.0
 
 
 @njit(cache=True, nogil=True)

@@ -128,10 +128,10 @@ def simulate(loops: list[Loop], samples: int = SAMPLES) -> list[Record]:
             t = np.arange(n) * lp.ts_s + rng.uniform(0, lp.period_s)
             wave = np.sin(2 * np.pi * t / lp.period_s)
             if lp.cause == "square":  # an upstream loop's cycle: a square wave through a lag of a tenth of it
-                wave, keep, filtered = np.sign(wave), np.exp(-lp.ts_s / (lp.period_s / 10)), np.zeros(n)
-                for k in range(1, n):
-                    filtered[k] = keep * filtered[k - 1] + (1 - keep) * wave[k]
-                wave = filtered
+                from scipy.signal import lfilter
+
+                keep = np.exp(-lp.ts_s / (lp.period_s / 10))
+                wave = lfilter([1 - keep], [1, -keep], np.sign(wave))
             external[i] = lp.load_pct * wave
     sticky = f["s_pct"] > 0
     op, pv, mv = np.zeros((n_loops, n)), np.zeros((n_loops, n)), np.zeros((n_loops, n))

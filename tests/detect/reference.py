@@ -121,9 +121,9 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
     return (len(hits) / len(spans) if spans else 0.0), max(hits, default=0.0)
 
 
-def step_kurtosis(y):
+def step_kurtosis(y, rounding_rel):
     d = np.diff(y)
     d = d - d.mean()
     v = np.mean(d * d)
-    rounding = 1e-9 * max(1.0, float(np.max(np.abs(y))))  # steps that differ by the arithmetic's rounding only
+    rounding = rounding_rel * max(1.0, float(np.max(np.abs(y))))  # steps that differ by the arithmetic's rounding
     return float(np.mean(d**4) / v**2) if v > rounding**2 else 3.0
