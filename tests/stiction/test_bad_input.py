@@ -156,6 +156,7 @@ def test_one_bad_file_never_stops_the_others(tmp_path, capsys):
         (["quantify", "nope.csv"], "nope.csv: no such file"),
         (["agent", "--estimate-every", "0"], "--estimate-every at least 1"),
         (["agent", "--first-window", "50"], "at least 100 samples"),
+        (["bench", "detect", "--samples", "10"], "--samples 10: need at least 100"),
     ],
 )
 def test_bad_flags_and_paths(capsys, argv, expected):
