@@ -28,9 +28,13 @@ def _title(report) -> str:
             f"; S {report.s_pct:.2f}{s_se} %, J {report.j_pct:.2f}{j_se} % of span"
             f" (fs {report.fs_pct:.1f}, fd {report.fd_pct:.1f} % of 500 lbf; {report.method})"
         )
-    lines = [head]
-    for w in report.warnings:  # wrapped, never cut: a warning is read whole
-        lines += textwrap.wrap(w, TITLE_WIDTH, subsequent_indent="    ")
+    return _with_warnings([head], report.warnings)
+
+
+def _with_warnings(lines: list[str], warnings) -> str:
+    """The title's lines, then every warning, each wrapped whole: a warning is read whole, never cut."""
+    for w in warnings:
+        lines = lines + textwrap.wrap(w, TITLE_WIDTH, subsequent_indent="    ")
     return "\n".join(lines)
 
 
@@ -89,20 +93,24 @@ def _diagnosis_title(report) -> str:
         if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None
         else "no friction read"
     )
-    return (
+    head = (
         f"{report.loop_id}: {causes or 'no cause beyond the canonical loop'}; "
-        f"fit error {report.base_error:.3g} → {report.extended_error:.3g} % (gain {report.gain_pct:.0f} %)\n"
-        f"{report.process.description}; {sj}"
+        f"fit error {report.base_error:.3g} → {report.extended_error:.3g} % (gain {report.gain_pct:.0f} %)"
     )
+    # wrapped like the warnings after it: a long list of causes ran off both sides of the figure
+    return _with_warnings(textwrap.wrap(head, TITLE_WIDTH) + textwrap.wrap(f"{report.process.description}; {sj}",
+                                                                           TITLE_WIDTH), report.warnings)  # fmt: skip
 
 
 def plot_diagnosis(out: Path, record, d, report) -> Path:
     """Measured PV against the canonical and the extended model; OP and the model's stem; the OP-PV
-    overlay; the residuals' spectra.  The causes and the gain in the title."""
+    overlay; the residuals' spectra.  The causes, the gain and the report's warnings in the title."""
     from stiction.ident.friction import simulated_pv, stem_path
 
     t = record.t_s
-    fig, axes = plt.subplots(2, 2, figsize=(14, 8), gridspec_kw={"width_ratios": [1.7, 1]})
+    title = _diagnosis_title(report)
+    fig, axes = plt.subplots(2, 2, figsize=(14, 7.6 + TITLE_LINE_IN * (title.count("\n") + 1)),
+                             gridspec_kw={"width_ratios": [1.7, 1]})  # fmt: skip
     ax = axes[0, 0]
     ax.plot(t, record.pv_pct, color="0.35", lw=0.8, label="PV measured")
     ax.plot(t, simulated_pv(d.base.fit, record), color="tab:red", lw=1.0, label="canonical model")
@@ -141,7 +149,7 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
     else:
         ax.text(0.5, 0.5, "no error left to show: PV does not move", ha="center", transform=ax.transAxes)
     ax.set_title("where the models fail, by period", fontsize=9)
-    fig.suptitle(_diagnosis_title(report), fontsize=9)
+    fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=80)
     plt.close(fig)

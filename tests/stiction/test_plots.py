@@ -4,7 +4,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from stiction.plots import TITLE_WIDTH, _title, plot_loop
+from stiction.plots import TITLE_WIDTH, _diagnosis_title, _title, plot_loop
 
 
 def _report(warnings):
@@ -22,6 +22,20 @@ def test_a_long_warning_is_wrapped_not_cut():
     assert "THE END" in title and "short one" in lines[-1]
     assert " ".join(line.strip() for line in lines[1:-1]) == long
 
+
+
+def test_a_diagnosis_title_wraps_its_causes_and_carries_the_reports_warnings_whole():
+    doubt = "the band S 0.117 +- 0.54 % of span: its interval of two standard errors holds 0, " * 3 + "THE END"
+    report = SimpleNamespace(
+        loop_id="LIC1", causes=["sensor_lag", "process_gain", "dead_time", "external_oscillation"] * 3,
+        parameters={"sensor_tau_s": 45.4, "gain_ratio": 0.649, "dead_time_s": 2.92, "osc_period_s": 864.0},
+        base_error=1.71, extended_error=0.661, gain_pct=61.0, s_pct=0.12, s_se_pct=0.54, j_pct=0.09, j_se_pct=0.08,
+        process=SimpleNamespace(description="integrating, dead time 2.92 s"), warnings=[doubt],
+    )  # fmt: skip
+    lines = _diagnosis_title(report).splitlines()
+    assert all(len(line) <= TITLE_WIDTH for line in lines) and len(lines) >= 4
+    assert lines[0].startswith("LIC1: sensor_lag") and "THE END" in lines[-1]
+    assert doubt in " ".join(line.strip() for line in lines)  # read whole, never cut
 
 def test_the_identified_models_pv_is_drawn_and_the_title_fits(tmp_path):
     import matplotlib.image as mpimg
