@@ -82,9 +82,15 @@ class Logistic:
 
 
 def fit_logistic(
-    x: np.ndarray, labels: list[str], classes: tuple[str, ...], weights: np.ndarray | None = None, l2: float = L2
+    x: np.ndarray,
+    labels: list[str],
+    classes: tuple[str, ...],
+    weights: np.ndarray | None = None,
+    l2: float = L2,
+    left_out: np.ndarray | None = None,
 ) -> Logistic:
-    """Maximum (penalised) likelihood softmax regression; ``weights`` per sample (default 1)."""
+    """Maximum (penalised) likelihood softmax regression; ``weights`` per sample (default 1); ``left_out``
+    [F] bool: features whose weights are held at 0 (the model does not read them)."""
     x = np.asarray(x, float)
     mean, scale = x.mean(axis=0), x.std(axis=0) + 1e-9
     z = (x - mean) / scale
@@ -105,7 +111,11 @@ def fit_logistic(
         g = (w_sample[:, None] * (p - onehot)) / total
         return value, np.concatenate([(z.T @ g + 2 * l2 * w).ravel(), g.sum(axis=0)])
 
-    result = minimize(loss, np.zeros(f * c + c), jac=True, method="L-BFGS-B")
+    bounds = None
+    if left_out is not None:
+        bounds = [(0.0, 0.0) if out else (None, None) for out in np.asarray(left_out, bool) for _ in range(c)]
+        bounds += [(None, None)] * c
+    result = minimize(loss, np.zeros(f * c + c), jac=True, method="L-BFGS-B", bounds=bounds)
     theta = result.x
     return Logistic(classes, mean, scale, theta[: f * c].reshape(f, c), theta[f * c :])
 
