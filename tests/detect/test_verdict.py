@@ -210,12 +210,13 @@ def test_a_sticky_limit_cycle_is_called_whatever_the_historian_sampling(detector
     loops = [loop for loop in two_parameter.draw(10, 11) if loop.kind == "flow" and loop.cause == "stiction"]
     cycles = 0
     for loop in loops:
-        slow, fast = (
-            two_parameter.simulate([replace(loop, ts_s=ts_s)], samples)[0] for ts_s, samples in ((1.0, 3000), (5.0, 600))
-        )
-        v_slow, v_fast = (decide(detector, evidence(r.op, r.pv, r.ts_s, r.sp), []) for r in (slow, fast))
-        ev_fast = evidence(fast.op, fast.pv, fast.ts_s, fast.sp)
-        if v_slow.verdict == "stiction" and ev_fast.oscillation.oscillating:
+        evs = [
+            evidence(r.op, r.pv, r.ts_s, r.sp)
+            for ts_s, samples in ((1.0, 3000), (5.0, 600))
+            for r in two_parameter.simulate([replace(loop, ts_s=ts_s)], samples)
+        ]
+        v_slow, v_fast = (decide(detector, ev, []) for ev in evs)
+        if v_slow.verdict == "stiction" and evs[1].oscillation.oscillating:
             cycles += 1
             assert v_fast.verdict == "stiction", (loop, v_slow.stiction_probability, v_fast.stiction_probability)
     assert cycles >= 4  # the draw holds limit cycles at both rates
