@@ -64,6 +64,19 @@ def test_logistic_fit_recovers_a_known_boundary():
     assert w[0] > 0 > w[1] and abs(w[2]) < 0.2 * abs(w[0])
 
 
+def test_a_feature_left_out_weighs_nothing_and_the_rest_fit_as_without_it():
+    """Reference: the same fit on the other columns alone."""
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=(400, 3))
+    labels = ["stiction" if a + x2 + 0.3 * rng.normal() > 0 else "other" for a, _, x2 in x]
+    left_out = np.array([False, True, False])
+    model = fit_logistic(x, labels, ("other", "stiction"), left_out=left_out)
+    alone = fit_logistic(x[:, ~left_out], labels, ("other", "stiction"))
+    assert np.all(model.weights[1] == 0)
+    assert np.allclose(model.weights[~left_out], alone.weights, atol=1e-3)
+    assert np.allclose(model.probabilities(x), alone.probabilities(x[:, ~left_out]), atol=1e-3)
+
+
 def test_detector_file_names_the_features_it_was_trained_on(tmp_path, detector):
     path = tmp_path / "d.json"
     detector.save(path)
