@@ -59,12 +59,13 @@ def test_transfer_function_is_the_simulators_discretisation(dyn):
         state = tf.phi @ state
 
 
-@pytest.mark.parametrize("dyn", [Dynamics(), Dynamics(30.0, 3.3, 7.0)])
+@pytest.mark.parametrize("dyn", [Dynamics(), Dynamics(30.0, 3.3, 7.0), Dynamics(None, 12.0)])
 def test_a_batch_of_inputs_goes_through_the_process_as_scipys_lfilter_filters_it(dyn):
     from scipy.signal import lfilter
 
     tf = transfer_function(dyn, 1.0)
-    u = np.random.default_rng(1).standard_normal((3, 4, 200))
+    # 35 rows: two full blocks of the kernel's rows and a part of one; a dead time's zero taps in b
+    u = np.random.default_rng(1).standard_normal((5, 7, 200))
     np.testing.assert_allclose(tf.response(u), lfilter(tf.b, tf.a, u, axis=-1), rtol=1e-12, atol=1e-12)
 
 
