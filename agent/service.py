@@ -207,12 +207,14 @@ class AgentService:
         """Subscribe to the shards this agent owns among the live agents (one subscription for all of
         them when it is alone: Zenoh's cost per message grows with the subscriptions), drop the
         others, and ask the publishers for the recent samples of the shards it has just taken on."""
-        self._drain()  # what a subscription about to go holds is ingested (or dropped by ownership), not lost
         p, owned = self.settings.prefix, self.core.owned_shards()
         every = len(owned) == keys.SHARDS
         wanted = {keys.shard_samples(p, "*")} if every else {keys.shard_samples(p, k) for k in owned}
         for expr in sorted(wanted - set(self._shard_subs)):  # the new first: no sample falls between the two
             self._shard_subs[expr] = self._sample_subscriber(expr)
+        # what a subscription about to go holds comes in first (a channel cannot be read once undeclared); what
+        # reaches it after this drain came to the new subscriptions too, or is of a shard no longer owned
+        self._drain()
         for expr in [e for e in self._shard_subs if e not in wanted]:
             self._shard_subs.pop(expr).undeclare()
         new, self._owned = sorted(owned - self._owned), owned
