@@ -41,10 +41,15 @@ HISTORY_TIMEOUT_S = 30.0
 BACKLOG_MESSAGES = 20000
 """Past this many queued messages the agent is behind: it ingests them all first, so the queue
 stays bounded and reports are late rather than samples stranded."""
-SAMPLE_CHANNEL = 1 << 20
+SAMPLE_CHANNEL = 1 << 16
 """Samples a subscription's channel holds before Zenoh waits for the worker to drain it.  Samples come
 through channels the worker drains, not callbacks: a callback per message took the GIL from Zenoh's
-thread 10,000 times a second, 0.29 of a core at 10,000 loops (``stiction bench throughput``)."""
+thread 10,000 times a second, 0.29 of a core at 10,000 loops (``stiction bench throughput``).  The
+worker drains them between every thousand messages it ingests and every batch of reports: a sample
+waiting in a channel holds on to the network buffer it arrived in, and a survivor taking over a dead
+agent's loops, busy with their history, peaked at 0.9-1 GB with 2^20 samples a channel where the
+callbacks' copies had 540 MB; 2^16 (6.5 s of 10,000 loops) 680 MB, and a full channel makes Zenoh wait,
+which the publishers' congestion control (BLOCK) turns into back-pressure, not loss."""
 IDLE_WAIT_S = 0.02
 """How long an idle worker waits before it drains the channels again (samples do not wake it)."""
 
@@ -258,8 +263,11 @@ class AgentService:
         n = 0
         limit = INGEST_PER_PASS if len(self._inbox) <= BACKLOG_MESSAGES else len(self._inbox)
         while self._inbox and n < limit:
-            if n % INGEST_PER_PASS == 0 and stop is not None and stop.is_set():
-                return False
+            if n % INGEST_PER_PASS == 0:
+                if stop is not None and stop.is_set():
+                    return False
+                if n:
+                    self._drain()
             key, payload, encoding, arrived, history = self._inbox.popleft()
             self.messages_received += 1
             self.core.ingest(key, payload, encoding, arrived, history)
@@ -272,6 +280,7 @@ class AgentService:
                 return False
             in_pipeline = sum(self.quantifier.cpu_s.values())
             self._report(due[i : i + self.settings.max_batch])
+            self._drain()  # the channels are short between batches: a sample held there pins Zenoh's buffer
             later = time.thread_time()
             self._cpu_s["publish"] += later - now - (sum(self.quantifier.cpu_s.values()) - in_pipeline)
             now = later
