@@ -117,18 +117,14 @@ class AgentService:
     def _sample_subscriber(self, expr: str):
         return self.session.declare_subscriber(expr, self._zenoh.handlers.FifoChannel(SAMPLE_CHANNEL))
 
-    def _drain(self) -> int:
-        """Move every sample waiting in the subscriptions' channels to the inbox, stamped with this pass's
-        time; how many."""
-        now, n = time.monotonic(), 0
-        inbox = self._inbox
+    def _drain(self) -> None:
+        """Move every sample waiting in the subscriptions' channels to the inbox, stamped with this pass's time."""
+        now, inbox = time.monotonic(), self._inbox
         for sub in (self._spec_samples, *self._shard_subs.values()):
             if sub is None:
                 continue
             while (sample := sub.try_recv()) is not None:
                 inbox.append((str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), now, False))
-                n += 1
-        return n
 
     # zenoh callbacks: keep them tiny ------------------------------------------------------------
     def _on_history(self, reply) -> None:
@@ -179,14 +175,14 @@ class AgentService:
     def start(self) -> AgentService:
         warm_up()  # before the first samples: a first compile must not delay the first reports
         p, s = self.settings.prefix, self.session
+        self._spec_samples = self._sample_subscriber(keys.all_samples(p))  # the spec's key: every agent
         self._declared = [
             s.liveliness().declare_subscriber(keys.all_agents(p), self._on_agent, history=True),
             s.liveliness().declare_token(keys.agent_token(p, self.settings.agent_id)),
-            self._sample_subscriber(keys.all_samples(p)),  # the spec's key: every agent
+            self._spec_samples,
             s.declare_subscriber(keys.all_reports(p), self._on_report),
             s.declare_queryable(keys.all_reports(p), self._on_query),
         ]
-        self._spec_samples = self._declared[2]
         if self.sink is not None:  # the viewer shows the truth where the simulator publishes it
             self._declared.append(s.declare_subscriber(keys.all_truths(p), self._on_truth))
         self._sync_shards()

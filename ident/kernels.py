@@ -221,7 +221,7 @@ IIR_BLOCK_ROWS = 16
 and a block's [N, 16] buffers stay in cache.  Transposing the whole batch instead (a diagnosis filters
 up to 5,000 candidate paths of 3,600 samples in one call) made two copies of 140 MB each and spent
 three quarters of the time moving them: 0.57 s against 0.15 s a call (``stiction diagnose`` of a
-3,600-sample level loop 35 -> 24 s)."""
+3,600-sample level loop 35 -> 27 s)."""
 
 
 @njit(cache=True, nogil=True)
