@@ -1,8 +1,8 @@
 """The sequential recursions of the fits, compiled: the valve's walk and the optimal segmentation;
 the PI controller's least squares, which the agent runs on every window; the stem's regressors
 from a set of slips (``path_regressors``: piece by piece, where numpy's gathers and cumulative sums
-cost a quarter of a diagnosis); and the process's
-difference equation (``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every
+cost a quarter of a diagnosis); the stem's pieces from a segmentation (``path_pieces``: a loop over
+thousands of pieces, a third of a long record's diagnosis); and the process's difference equation (``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every
 command half a second).
 
 The first two run sample by sample with a decision at each step, which numpy cannot
@@ -142,6 +142,49 @@ def segment_row(f, penalty):
         m += 1
         t = last[t]
     return ends[:m][::-1].copy()
+
+
+@njit(cache=True)
+def path_pieces(u, bounds, noise_sd, min_jump_sd):
+    """(starts, levels) of the stem's pieces from a segmentation of ``u`` (``bounds``: 0, then each
+    piece's end): a piece of one sample between two levels joins the nearer one, and a piece whose level
+    is within ``min_jump_sd`` standard errors of the one before merges into it (``ident.stem._path``).
+    Each piece's mean comes from two cumulative sums; its plain-Python transcription is in ``tests/ident``."""
+    m = bounds.size
+    drop = np.zeros(m, np.bool_)
+    for i in range(1, m - 2):
+        a, b = bounds[i], bounds[i + 1]
+        if b - a == 1 and min(u[a - 1], u[b]) < u[a] < max(u[a - 1], u[b]):
+            if abs(u[a] - u[b]) < abs(u[a] - u[a - 1]):
+                drop[i + 1] = True
+            else:
+                drop[i] = True
+    kept = np.empty(m, np.int64)
+    k = 0
+    for i in range(m):
+        if not drop[i]:
+            kept[k] = bounds[i]
+            k += 1
+    total = np.zeros(u.size + 1)
+    for i in range(u.size):
+        total[i + 1] = total[i] + u[i]
+    starts = np.empty(k, np.int64)
+    levels = np.empty(k)
+    starts[0] = kept[0]
+    levels[0] = (total[kept[1]] - total[0]) / (kept[1] - 0)
+    p = 1
+    for i in range(1, k - 1):
+        a, b = kept[i], kept[i + 1]
+        level = (total[b] - total[a]) / (b - a)
+        se = noise_sd * math.sqrt(1.0 / (b - a) + 1.0 / (a - starts[p - 1]))
+        if abs(level - levels[p - 1]) < min_jump_sd * se:
+            s = starts[p - 1]
+            levels[p - 1] = (total[b] - total[s]) / (b - s)
+            continue
+        starts[p] = a
+        levels[p] = level
+        p += 1
+    return starts[:p].copy(), levels[:p].copy()
 
 
 @njit(cache=True, nogil=True)

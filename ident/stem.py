@@ -17,7 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from stiction.ident import lattice
+from stiction.ident import kernels, lattice
 from stiction.ident.process import Dynamics, transfer_function
 from stiction.ident.segment import segment_ends
 
@@ -111,13 +111,10 @@ LOAD_ITERATIONS = 3
 def _pieces(u: np.ndarray, sd: float) -> np.ndarray:
     """The optimal piecewise-constant approximation of ``u``."""
     sd = max(sd, 1e-6 * float(np.ptp(u)))
-    ends = segment_ends(u[None, :], np.array([SEGMENT_PENALTY * sd**2 * np.log(u.size) + 1e-12]))[0]
-    out = np.empty_like(u)
-    start = 0
-    for e in ends:
-        out[start:e] = u[start:e].mean()
-        start = e
-    return out
+    ends = np.array(segment_ends(u[None, :], np.array([SEGMENT_PENALTY * sd**2 * np.log(u.size) + 1e-12]))[0])
+    starts = np.concatenate([[0], ends[:-1]])
+    lengths = ends - starts
+    return np.repeat(np.add.reduceat(u, starts) / lengths, lengths)  # each piece's mean, on its samples
 
 
 def _without_load(u: np.ndarray, k0: int, sd: float, period_s: float, ts_s: float):
@@ -193,33 +190,13 @@ def read_paths(
 
 def _path(u: np.ndarray, k0: int, ends: list[int], noise_sd: float, n: int | None = None) -> StemPath:
     """Slips from a segmentation of ``u``, whose sample i is the input of interval ``i + k0`` (of ``n``)."""
-    bounds = [0, *ends]
     # a jump smeared over two samples (a slip within an interval, a fractional dead time) leaves a
     # piece of one sample between the two levels: it joins the level it is nearer to, so that the
-    # slip is placed where the jump is half done, whether or not noise split it off
-    drop = set()
-    for i in range(1, len(bounds) - 2):
-        a, b = bounds[i], bounds[i + 1]
-        if b - a == 1 and min(u[a - 1], u[b]) < u[a] < max(u[a - 1], u[b]):
-            drop.add(b if abs(u[a] - u[b]) < abs(u[a] - u[a - 1]) else a)
-    bounds = [x for x in bounds if x not in drop]
-    total = np.concatenate([[0.0], np.cumsum(u)]).tolist()  # a stretch's mean from two sums, not a pass over it
-
-    def mean(a: int, b: int) -> float:
-        return (total[b] - total[a]) / (b - a)
-
-    starts, levels = [bounds[0]], [mean(0, bounds[1])]
-    for a, b in zip(bounds[1:-1], bounds[2:], strict=True):
-        level = mean(a, b)
-        # a split of one still stretch (drift, noise) is no slip: merge it into the piece before
-        se = noise_sd * np.sqrt(1.0 / (b - a) + 1.0 / (a - starts[-1]))
-        if abs(level - levels[-1]) < MIN_JUMP_SD * se:
-            levels[-1] = mean(starts[-1], b)
-            continue
-        starts.append(a)
-        levels.append(level)
-    slips = np.array(starts[1:], dtype=int) + k0
-    levels = np.array(levels)
+    # slip is placed where the jump is half done, whether or not noise split it off; a split of one
+    # still stretch (drift, noise) is no slip: it merges into the piece before (compiled: ``ident.kernels``)
+    bounds = np.array([0, *ends], dtype=np.int64)
+    starts, levels = kernels.path_pieces(np.ascontiguousarray(u, dtype=float), bounds, float(noise_sd), MIN_JUMP_SD)
+    slips = starts[1:] + k0
     keep = (slips >= 1) & (slips < (n if n is not None else np.inf))
     # pieces whose slip falls outside the record merge into their neighbour
     first = int(np.argmax(keep)) if keep.any() else slips.size
