@@ -179,6 +179,12 @@ GAIN_SE_COVER = 2.0
 """Standard errors either side of a turned-down gain's fit that the data allow (about 95 %)."""
 
 
+def _interval_text(lo: float, hi: float) -> str:
+    """``lo-hi`` with the digits that tell the two ends apart (a tight interval about 1 read "1-1")."""
+    digits = 3 if hi - lo <= 0 else max(3, int(np.ceil(-np.log10((hi - lo) / max(abs(hi), 1e-300)))) + 1)
+    return f"{lo:.{digits}g}-{hi:.{digits}g}"
+
+
 def _gain_interval(cand: Candidate | None) -> list[Tie]:
     """A process gain turned down whose interval (``GAIN_SE_COVER`` standard errors) holds the nominal:
     the data allow any gain in it, and the report gives the interval rather than "nominal"."""
@@ -194,7 +200,7 @@ def _gain_interval(cand: Candidate | None) -> list[Tie]:
             "process_gain",
             cand.delta_criterion,
             {"gain_ratio_low": lo, "gain_ratio_high": hi},
-            f"a process gain of {lo:.3g}-{hi:.3g} times the nominal explains PV as well (two standard errors)",
+            f"a process gain of {_interval_text(lo, hi)} times the nominal explains PV as well (two standard errors)",
         )
     ]
 

@@ -2,8 +2,8 @@
 the PI controller's least squares, which the agent runs on every window; the stem's regressors
 from a set of slips (``path_regressors``: piece by piece, where numpy's gathers and cumulative sums
 cost a quarter of a diagnosis); the stem's pieces from a segmentation (``path_pieces``: a loop over
-thousands of pieces, a third of a long record's diagnosis); and the process's difference equation (``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every
-command half a second).
+thousands of pieces, a third of a long record's diagnosis); and the process's difference equation
+(``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every command half a second).
 
 The first two run sample by sample with a decision at each step, which numpy cannot
 vectorise over time; the third is four columns of one window, where numpy's per-call cost

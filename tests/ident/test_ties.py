@@ -105,6 +105,10 @@ def test_a_gain_turned_down_gives_the_interval_the_data_allow_where_it_holds_the
     assert tie.parameters == {"gain_ratio_low": pytest.approx(0.98), "gain_ratio_high": pytest.approx(1.10)}
     # the nominal outside two standard errors: the data do not allow it, no interval is offered
     assert not [t for t in ties(step(1.10, 0.03), _chosen(60.0), _record()) if t.alternative == "process_gain"]
+    assert "0.98-1.1 times" in tie.note
+    # an interval the data pin tightly about the nominal is written with the digits that tell its ends apart
+    (tight,) = [t for t in ties(step(1.0, 1e-5), _chosen(60.0), _record()) if t.alternative == "process_gain"]
+    assert "0.99998-1.00002 times" in tight.note
 
 
 def test_a_gain_too_close_to_the_nominal_to_name_is_reported_with_its_interval():
