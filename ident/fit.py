@@ -108,7 +108,7 @@ def _batch_fit(
     record: Record, hyp: Hypothesis, regs: np.ndarray, tf: TransferFunction, q: np.ndarray, nominal_gain: float
 ):
     """Least squares of every candidate's regressors [C, 4, N] at once: (rss [C], coef [C, 4]) of ``ROWS``."""
-    x = project_out(record.compared(tf.response(regs)).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 4, -1)
+    x = project_out(record.compared_response(tf, regs).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 4, -1)
     y = project_out(record.target[None, :], q)[0]
     rows = solved_rows(hyp)
     cols = x[:, rows]
@@ -246,7 +246,7 @@ def _anchored_fit(
     q = nuisance_basis(record, tf, omega)
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
     if hyp.linear_valve:
-        x = record.compared(tf.response(drive.mean[None, :]))
+        x = record.compared_response(tf, drive.mean[None, :])
         y = record.target if hyp.gain_free else record.target - nominal_gain * x[0]
         fit = solve(y, x if hyp.gain_free else x[:0], q)
         if not hyp.gain_free:
@@ -421,7 +421,7 @@ def _finish(
     cannot read: all slips one way, say, where a stem's level shift is the nuisance's constant) is
     held at the nearest possible value and the rest refitted: no valve lands beyond its drive.
     """
-    x = record.compared(tf.response(path_regressors(slips, record.n, record.ts_s, hyp.snapshot)))
+    x = record.compared_response(tf, path_regressors(slips, record.n, record.ts_s, hyp.snapshot))
     fit = linear_fit(record, hyp, x, q, nominal_gain)
     c = valve_from_fit(fit)
     if band is not None and np.isfinite(band) and not (0.0 <= c.stop <= band):

@@ -68,7 +68,7 @@ def jump_profile_se(vf: ValveFit, record: Record, band: float) -> float:
         return 0.0
     tf = vf.tf
     q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
-    x = project_out(record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot))), q)
+    x = project_out(record.compared_response(tf, path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot)), q)
     y = project_out(record.target[None, :], q)[0]
     stops = np.linspace(0.0, band, PROFILE_POINTS)
     rss = np.empty(stops.size)
@@ -147,9 +147,9 @@ def load_amplitude_pct(record: Record, vf: ValveFit) -> float:
     nuisance = np.concatenate([record.compared(tf.free_responses(record.n)), np.ones((1, record.n_fit))])
     if hyp.linear_valve or vf.slips.at.size == 0:
         drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-        model = record.compared(tf.response(drive.mean[None, :]))
+        model = record.compared_response(tf, drive.mean[None, :])
     else:
-        model = record.compared(tf.response(path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot)))
+        model = record.compared_response(tf, path_regressors(vf.slips, record.n, record.ts_s, hyp.snapshot))
     y = record.target
     if not hyp.gain_free:
         y = y - vf.gain_ratio * model[0]

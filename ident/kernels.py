@@ -272,8 +272,23 @@ def iir_rows(b, a, x):
     """Each row of ``x`` [R, N] through ``b(q^-1) / a(q^-1)`` from rest:
     ``a0 y[k] = sum b_i x[k-i] - sum_{i>0} a_i y[k-i]``.  Time runs in the outer loop and a block of
     ``IIR_BLOCK_ROWS`` rows in the inner one; the numerator's zero taps (a dead time's) are skipped."""
+    return _iir_rows(b, a, x, 0, 0)
+
+
+@njit(cache=True, nogil=True)
+def iir_rows_changed(b, a, x, horizon, skip):
+    """``iir_rows`` of ``x`` compared as a record compares it (``ident.record.Record.compared``): each
+    filtered row's change over ``horizon`` samples, from sample ``skip`` of the changes on, written
+    straight from the block's buffer (the filtered batch and its change were two more arrays of the
+    batch's size, a tenth of a diagnosis)."""
+    return _iir_rows(b, a, x, horizon, skip)
+
+
+@njit(cache=True, nogil=True)
+def _iir_rows(b, a, x, horizon, skip):
     rows, n = x.shape
-    out = np.empty((rows, n))
+    width = n - horizon - skip if horizon > 0 else n
+    out = np.empty((rows, max(width, 0)))
     taps = np.flatnonzero(b[1:]) + 1
     m_block = IIR_BLOCK_ROWS
     bx = np.empty((n, m_block))
@@ -296,9 +311,14 @@ def iir_rows(b, a, x):
                     by[k, r] -= a[i] * by[k - i, r]
             for r in range(m):
                 by[k, r] /= a[0]
-        for r in range(m):
-            for k in range(n):
-                out[r0 + r, k] = by[k, r]
+        if horizon > 0:
+            for r in range(m):
+                for j in range(width):
+                    out[r0 + r, j] = by[horizon + skip + j, r] - by[skip + j, r]
+        else:
+            for r in range(m):
+                for k in range(n):
+                    out[r0 + r, k] = by[k, r]
     return out
 
 

@@ -59,6 +59,14 @@ class TransferFunction:
         rows = np.ascontiguousarray(u.reshape(-1, u.shape[-1]))
         return kernels.iir_rows(np.asarray(self.b, float), np.asarray(self.a, float), rows).reshape(u.shape)
 
+    def response_changed(self, u: np.ndarray, horizon: int, skip: int) -> np.ndarray:
+        """``response`` of [..., N] inputs, each row's change over ``horizon`` samples from the ``skip``-th
+        change on (``ident.record.Record.compared`` of the response, in one pass)."""
+        u = np.asarray(u, dtype=float)
+        rows = np.ascontiguousarray(u.reshape(-1, u.shape[-1]))
+        out = kernels.iir_rows_changed(np.asarray(self.b, float), np.asarray(self.a, float), rows, horizon, skip)
+        return out.reshape(*u.shape[:-1], out.shape[-1])
+
     def free_responses(self, n: int) -> np.ndarray:
         """[S, N] ``C Phi^k e_i`` for each state i: the output of an initial state, sample by sample."""
         lam, v = np.linalg.eig(self.phi)

@@ -52,6 +52,12 @@ class Record:
         """The compared part of any signal [..., N]: its change over the horizon after the warm-up."""
         return change(x, self.horizon)[..., self.skip :]
 
+    def compared_response(self, tf, u: np.ndarray) -> np.ndarray:
+        """``compared(tf.response(u))`` in one pass (``tf``: an ``ident.process.TransferFunction``)."""
+        if self.horizon < 1:
+            return self.compared(tf.response(u))
+        return tf.response_changed(u, self.horizon, self.skip)
+
     @property
     def target(self) -> np.ndarray:
         return self.compared(self.pv_pct)

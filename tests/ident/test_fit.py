@@ -67,6 +67,11 @@ def test_a_batch_of_inputs_goes_through_the_process_as_scipys_lfilter_filters_it
     # 35 rows: two full blocks of the kernel's rows and a part of one; a dead time's zero taps in b
     u = np.random.default_rng(1).standard_normal((5, 7, 200))
     np.testing.assert_allclose(tf.response(u), lfilter(tf.b, tf.a, u, axis=-1), rtol=1e-12, atol=1e-12)
+    # and compared as a record compares it, in the same pass: the change over the horizon after the warm-up
+    for horizon, skip in [(1, 12), (4, 0), (3, 7)]:
+        record = Record(np.zeros(200), np.zeros(200), 1.0, horizon=horizon, skip=skip)
+        want = record.compared(lfilter(tf.b, tf.a, u, axis=-1))
+        np.testing.assert_allclose(record.compared_response(tf, u), want, rtol=1e-12, atol=1e-12)
 
 
 def test_exact_parameters_reproduce_a_noise_free_loop():
