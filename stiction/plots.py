@@ -102,6 +102,10 @@ def _diagnosis_title(report) -> str:
                                                                            TITLE_WIDTH), report.warnings)  # fmt: skip
 
 
+SPECTRUM_FLOOR = 1e-3
+"""The residuals' spectra are shown down to this share of the lower model's median power."""
+
+
 def plot_diagnosis(out: Path, record, d, report) -> Path:
     """Measured PV against the canonical and the extended model; OP and the model's stem; the OP-PV
     overlay; the residuals' spectra.  The causes, the gain and the report's warnings in the title."""
@@ -128,13 +132,16 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
     ax.set_ylabel("OP, stem, %")
     ax.legend(loc="upper right", fontsize=8)
     ax = axes[0, 1]
-    ax.plot(record.op_pct, record.pv_pct, ".", ms=2, color="0.6", label="measured")
-    ax.plot(record.op_pct, simulated_pv(d.extended.fit, record), "-", lw=0.6, color="tab:blue", label="extended model")
+    # the model behind, the measured loop drawn over it: where they differ the measured one must stay readable
+    ax.plot(record.op_pct, simulated_pv(d.extended.fit, record), "-", lw=0.6, color="tab:blue", alpha=0.45,
+            label="extended model")  # fmt: skip
+    ax.plot(record.op_pct, record.pv_pct, ".-", ms=2, lw=0.3, color="0.15", label="measured")
     ax.set_xlabel("OP, %")
     ax.set_ylabel("PV, %")
     ax.legend(loc="best", fontsize=8)
     ax.set_title("OP-PV", fontsize=9)
     ax = axes[1, 1]
+    levels = []
     for model, color, label in ((d.base, "tab:red", "canonical"), (d.extended, "tab:blue", "extended")):
         resid = record.target - model.fit.fit.prediction
         spec = np.abs(np.fft.rfft(resid - resid.mean())) ** 2 / resid.size
@@ -142,6 +149,9 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
         shown = spec[1:] > 0  # a flat PV leaves nothing to show on a log scale
         if shown.any():
             ax.loglog(1 / freq[1:][shown], spec[1:][shown], lw=0.8, color=color, label=f"{label} residual")
+            levels.append(np.median(spec[1:][shown]))
+    if levels:  # a sine fitted exactly leaves a bin at rounding (1e-28): no finding, kept off the scale
+        ax.set_ylim(bottom=SPECTRUM_FLOOR * min(levels))
     ax.set_xlabel("period, s")
     ax.set_ylabel("power of the one-sample error")
     if ax.get_legend_handles_labels()[0]:
