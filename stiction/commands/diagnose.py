@@ -45,9 +45,7 @@ def _summary(path: str, r) -> str:
         f"  causes: {causes or (NONE_NAMED if r.candidates else '-')}",
         *([f"  cannot tell: {_ties(fitted, bool(r.causes))}"] if fitted else []),
         f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
-        f"  S {f(r.s_pct)} +- {f(r.s_se_pct)} %  J {f(r.j_pct)} +- {f(r.j_se_pct)} % of span   "
-        f"(fs {f(r.fs_pct, 1)} %, fd {f(r.fd_pct, 1)} % of 500 lbf; "
-        f"canonical model: fs {f(r.base_friction.fs_pct, 1)}, fd {f(r.base_friction.fd_pct, 1)})",
+        _friction_line(r, f),
     ]
     if r.valve_check is not None:
         v = r.valve_check
@@ -57,6 +55,16 @@ def _summary(path: str, r) -> str:
         )
     lines += [f"  warning: {w}" for w in r.warnings]
     return "\n".join(lines)
+
+
+def _friction_line(r, f) -> str:
+    canonical = f"canonical model: fs {f(r.base_friction.fs_pct, 1)}, fd {f(r.base_friction.fd_pct, 1)}"
+    if r.s_pct is None and r.fs_pct is None:  # withheld: the warnings below say why
+        return f"  S, J: not read (the warnings say why; {canonical})"
+    return (
+        f"  S {f(r.s_pct)} +- {f(r.s_se_pct)} %  J {f(r.j_pct)} +- {f(r.j_se_pct)} % of span   "
+        f"(fs {f(r.fs_pct, 1)} %, fd {f(r.fd_pct, 1)} % of 500 lbf; {canonical})"
+    )
 
 
 def _ties(ties, after_causes: bool) -> str:
