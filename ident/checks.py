@@ -127,6 +127,39 @@ def data_checks(op: np.ndarray, pv: np.ndarray) -> list[Check]:
     return sorted(out, key=lambda c: not c.blocks)
 
 
+def data_checks_rows(op: np.ndarray, pv: np.ndarray) -> list[list[Check]]:
+    """``data_checks`` of each row of ``op``, ``pv`` [W, N]: rows where no check can fire are screened
+    out together, by conditions each check needs (a share of repeated values, of samples at OP's
+    extremes, a range within rounding, fewer than four values), and only the rest are checked one by
+    one; the answers are ``data_checks``'s.  The agent checks hundreds of windows a second, most of
+    them clean (0.2 ms a window row by row)."""
+    op, pv = np.asarray(op, float), np.asarray(pv, float)
+    w, n = pv.shape
+    if n < 2:
+        return [data_checks(op[i], pv[i]) for i in range(w)]
+
+    def flat_rows(x):
+        return np.ptp(x, axis=1) <= FLAT_REL * np.maximum(1.0, np.max(np.abs(x), axis=1))
+
+    pv_repeats = np.count_nonzero(np.diff(pv, axis=1) == 0, axis=1)
+    lo, hi = pv.min(axis=1, keepdims=True), pv.max(axis=1, keepdims=True)
+    inner = (pv > lo) & (pv < hi)  # two distinct values strictly inside the range make four in all
+    inner_lo = np.where(inner, pv, np.inf).min(axis=1)
+    inner_hi = np.where(inner, pv, -np.inf).max(axis=1)
+    held = np.diff(op, axis=1) == 0
+    at_limit = np.maximum(np.count_nonzero(op == op.max(axis=1, keepdims=True), axis=1),
+                          np.count_nonzero(op == op.min(axis=1, keepdims=True), axis=1))  # fmt: skip
+    may_fire = (
+        flat_rows(pv)
+        | (pv_repeats + 1 >= max(FROZEN_SHARE * n, 50))  # a frozen run of r samples repeats r - 1 times
+        | ~(inner_lo < inner_hi)
+        | flat_rows(op)
+        | (at_limit >= PINNED_WARN_SHARE * n)
+        | (np.mean(held, axis=1) >= HELD_OP_SHARE - 1e-9)
+    )
+    return [data_checks(op[i], pv[i]) if may_fire[i] else [] for i in range(w)]
+
+
 def impossible_friction(
     s_pct: float, j_pct: float, s_se_pct: float, j_se_pct: float, op_range_pct: float
 ) -> str | None:

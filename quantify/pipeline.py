@@ -22,7 +22,7 @@ import numpy as np
 from stiction.detect import features
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide
 from stiction.ident import controller
-from stiction.ident.checks import blocking, data_checks
+from stiction.ident.checks import blocking, data_checks_rows
 from stiction.quantify import inlpca, policy
 from stiction.quantify.analysis import analyse_where
 from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
@@ -121,7 +121,7 @@ class Quantifier:
         declared = np.array([w.process == "level" for w in windows])
         identified = policy.canonical_level(op, pv, ts_s, sps, ~declared)
         level = declared | identified
-        problems_all = [data_checks(op[i], pv[i]) for i in range(n)]
+        problems_all = data_checks_rows(op, pv)
         evs = features.evidence_rows(op, pv, ts_s, sps)
         verdicts = [
             decide(self.detector, ev, [c.message for c in blocking(problems)])

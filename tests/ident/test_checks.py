@@ -1,0 +1,60 @@
+"""The data checks of a batch of windows (``data_checks_rows``, which screens clean rows out together)
+against the checks of each window alone, on windows that trip every check and on clean ones."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stiction.ident.checks import data_checks, data_checks_rows
+
+
+def _windows(n: int = 400) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    rng = np.random.default_rng(3)
+    t = np.arange(n)
+    clean_op = 50 + 5 * np.sin(t / 20) + rng.normal(0, 0.3, n)
+    clean_pv = 40 + 2 * np.sin(t / 20 - 1) + rng.normal(0, 0.1, n)
+    rows = {"clean": (clean_op, clean_pv)}
+    rows["flat_pv"] = (clean_op, np.full(n, 3.5e-44))
+    frozen = clean_pv.copy()
+    frozen[100 : 100 + n // 2 + 5] = frozen[100]
+    rows["frozen_pv"] = (clean_op, frozen)
+    almost = clean_pv.copy()
+    almost[100 : 100 + n // 2 - 5] = almost[100]  # a run just short of half the window: no check
+    rows["almost_frozen"] = (clean_op, almost)
+    rows["stepped_pv"] = (clean_op, np.where(np.sin(t / 20) > 0, 41.0, 39.0) + (t % 50 == 0))
+    rows["three_values"] = (clean_op, np.choose(t % 3, [1.0, 2.0, 3.0]))
+    rows["four_values"] = (clean_op, np.choose(t % 4, [1.0, 2.0, 3.0, 4.0]))
+    rows["manual"] = (np.full(n, 42.0), clean_pv)
+    rows["saturated_op"] = (np.minimum(clean_op, 53.0), clean_pv)
+    rows["saturated_low"] = (np.maximum(clean_op, 47.0), clean_pv)
+    rows["held_op"] = (np.repeat(clean_op[::20], 20)[:n], clean_pv)
+    rows["held_and_clipped"] = (np.clip(np.repeat(clean_op[::10], 10)[:n], 46, 54), clean_pv)
+    names = list(rows)
+    op = np.stack([rows[k][0] for k in names])
+    pv = np.stack([rows[k][1] for k in names])
+    return op, pv, names
+
+
+def test_a_batch_is_checked_as_each_window_alone():
+    op, pv, names = _windows()
+    got = data_checks_rows(op, pv)
+    for i, name in enumerate(names):
+        assert got[i] == data_checks(op[i], pv[i]), name
+    fired = {name: [c.name for c in got[i]] for i, name in enumerate(names)}
+    # every check is tripped somewhere in the batch, and the clean windows trip none
+    assert {c for cs in fired.values() for c in cs} >= {
+        "flat_pv", "frozen_pv", "stepped_pv", "manual", "saturated_op", "held_op",
+    }  # fmt: skip
+    assert fired["clean"] == [] and fired["almost_frozen"] == [] and fired["four_values"] == []
+
+
+def test_random_batches_agree_with_the_row_by_row_checks():
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        w, n = 30, int(rng.integers(20, 300))
+        op = np.round(rng.normal(50, 5, (w, n)), int(rng.integers(0, 3)))  # rounding: repeats and plateaus
+        pv = np.round(rng.normal(40, 1, (w, n)), int(rng.integers(0, 3)))
+        op[::3] = np.clip(op[::3], 48, 52)
+        pv[::4, : n // 2] = pv[::4, :1]
+        got = data_checks_rows(op, pv)
+        assert got == [data_checks(op[i], pv[i]) for i in range(w)]
