@@ -41,6 +41,25 @@ def crossings(x, hysteresis):
 
 
 @njit(cache=True, nogil=True)
+def regularity(crossings):
+    """(r, mean period) from successive zero crossings: each pair of half periods is one period, and
+    ``r = mean / (3 sd)`` (inf where every period is equal; 0 and nan under three half periods)."""
+    m = crossings.size - 2  # periods: pairs of successive half periods
+    if crossings.size < 4:
+        return 0.0, np.nan
+    total = 0.0
+    for i in range(m):
+        total += float(crossings[i + 2] - crossings[i])
+    mean = total / m
+    ss = 0.0
+    for i in range(m):
+        d = float(crossings[i + 2] - crossings[i]) - mean
+        ss += d * d
+    sd = math.sqrt(ss / m)
+    return (mean / (3.0 * sd) if sd > 0 else np.inf), mean
+
+
+@njit(cache=True, nogil=True)
 def half_cycle_peaks(y, crossings):
     """Median over half cycles ``[a, b)`` of the 90th percentile (numpy's linear rule) of ``|y|``;
     nan without a half cycle."""

@@ -40,6 +40,16 @@ def stiction_index(x):
     return float(mse_sine / total) if used and total > 0 else float("nan")
 
 
+def regularity(crossings):
+    """(r, mean period) as numpy reads them: intervals, each pair of half periods one period."""
+    intervals = np.diff(np.asarray(crossings)).astype(float)
+    if intervals.size < 3:
+        return 0.0, float("nan")
+    periods = intervals[1:] + intervals[:-1]
+    sd, mean = float(np.std(periods)), float(np.mean(periods))
+    return (mean / (3 * sd) if sd > 0 else np.inf), mean
+
+
 def crossings(x, hysteresis):
     state = 0
     out = []

@@ -77,7 +77,6 @@ def test_bicoherence_excess_reads_a_linear_signal_as_zero_at_any_length():
     assert short < long - 0.1  # what the excess corrects
 
 
-
 def test_the_evidence_does_not_change_with_pv_in_other_units_or_offset():
     """Hidden effect: PV and OP exported in engineering units (scaled, offset), on records a historian
     compressed into straight stretches.  A straight line's remainder after detrending is rounding noise
@@ -100,6 +99,7 @@ def test_the_evidence_does_not_change_with_pv_in_other_units_or_offset():
     assert checked >= 15
     line = 50 + 0.01 * np.arange(600.0)  # one straight stretch: no oscillation, whatever its offset
     assert not oscillation.detect(line + 300).oscillating and oscillation.detect(line + 300).regularity == 0
+
 
 def test_ellipse_band_is_the_plot_width_at_mean_pv():
     t = np.linspace(0, 20 * np.pi, 4000, endpoint=False)
@@ -128,9 +128,9 @@ def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed)
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
+def test_compiled_crossings_regularity_detrend_and_bicoherence_equal_the_plain_loops(seed):
     from stiction.detect.bicoherence import squared_bicoherence
-    from stiction.detect.oscillation import _crossings, detrend
+    from stiction.detect.oscillation import _crossings, _regularity, detrend
     from tests.detect import reference
 
     rng = np.random.default_rng(seed)
@@ -141,6 +141,13 @@ def test_compiled_crossings_detrend_and_bicoherence_equal_the_plain_loops(seed):
         x[::7] = 0.0  # exact zeros: np.sign 0 ends a run
     for h in (0.0, 0.3, 1.0):
         np.testing.assert_array_equal(_crossings(x, h), reference.crossings(x, h))
+        zc = _crossings(x, h)
+        for few in (zc, zc[:3], zc[:4], np.arange(0, 50, 5)):  # irregular, too few, just enough, perfectly even
+            r, period = _regularity(few)
+            want_r, want_period = reference.regularity(few)
+            assert r == pytest.approx(want_r, rel=1e-12) and period == pytest.approx(
+                want_period, rel=1e-12, nan_ok=True
+            )
     np.testing.assert_allclose(detrend(x), reference.detrend_polyfit(x), atol=1e-9)
     b2, k = squared_bicoherence(x, 32)
     ref, k_ref = reference.squared_bicoherence(x, 32)
