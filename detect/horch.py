@@ -34,11 +34,16 @@ class Horch:
 def ccf(u: np.ndarray, e: np.ndarray, max_lag: int) -> tuple[np.ndarray, np.ndarray]:
     """Lags ``-max_lag..max_lag`` and the normalised cross-correlation ``E[u(t) e(t + lag)]``."""
     u, e = u - u.mean(), e - e.mean()
+    c = _lagged_products(u, e, max_lag) / (u.size * np.std(u) * np.std(e) + 1e-300)
+    return np.arange(-max_lag, max_lag + 1), c
+
+
+def _lagged_products(u: np.ndarray, e: np.ndarray, max_lag: int) -> np.ndarray:
+    """``sum_t u(t) e(t + lag)`` for lags ``-max_lag..max_lag``, by FFT."""
     n = u.size
     size = 1 << int(np.ceil(np.log2(2 * n)))
     c = np.fft.irfft(np.conj(np.fft.rfft(u, size)) * np.fft.rfft(e, size), size)
-    c = np.concatenate([c[size - max_lag :], c[: max_lag + 1]]) / (n * np.std(u) * np.std(e) + 1e-300)
-    return np.arange(-max_lag, max_lag + 1), c
+    return np.concatenate([c[size - max_lag :], c[: max_lag + 1]])
 
 
 def _crossing(lags: np.ndarray, c: np.ndarray) -> float:
@@ -70,7 +75,10 @@ def test(
     if not (op_d.sd > 0 and e_d.sd > 0):
         return Horch(float("nan"), "undecided")
     max_lag = int(min(op.size // 2, period_samples if period_samples and np.isfinite(period_samples) else op.size // 4))
-    lags, c = ccf(op, e, max(max_lag, 2))
+    # the test reads where the CCF changes sign, not its scale: the detrended signals (mean zero) go in
+    # as they are, unnormalised (a mean, a subtraction and a standard deviation each, 70 us a window)
+    lag = max(max_lag, 2)
+    lags, c = np.arange(-lag, lag + 1), _lagged_products(op, e, lag)
     mid = max_lag
     if c[mid] == 0:
         return Horch(1.0, "stiction")
