@@ -12,6 +12,7 @@ ellipse fitted to the PV-OP plot (Choudhury, Thornhill & Shah 2005) along OP.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,9 +59,17 @@ def _domain_values(x: np.ndarray, segment: int, d: Detrended | None = None) -> t
     step = segment // 2
     starts = np.arange(0, x.size - segment + 1, step)
     segs = x[starts[:, None] + np.arange(segment)]  # [K, segment], half overlapping
-    spectra = np.fft.fft(np.hanning(segment) * (segs - segs.mean(axis=1, keepdims=True)), axis=1)
+    spectra = np.fft.fft(_hann(segment) * (segs - segs.mean(axis=1, keepdims=True)), axis=1)
     i1, i2 = _domain(segment // 2)  # only the principal domain is computed
     return kernels.squared_bicoherence(spectra, i1, i2), len(starts)
+
+
+@functools.lru_cache(maxsize=8)
+def _hann(segment: int) -> np.ndarray:
+    """The Hann window of a segment (read-only, cached: the same few lengths for every window)."""
+    w = np.hanning(segment)
+    w.flags.writeable = False
+    return w
 
 
 @functools.lru_cache(maxsize=8)
@@ -77,16 +86,17 @@ def _domain(f: int) -> tuple[np.ndarray, np.ndarray]:
 def test(x: np.ndarray, d: Detrended | None = None) -> Bicoherence:
     """NGI and NLI of one signal (the control error or PV; ``d``: its ``detrended``, where the caller has it)."""
     n = np.asarray(x).size
-    segment = int(2 ** np.clip(np.floor(np.log2(n / 4)), 5, 7))  # 32..128 samples, at least ~7 segments
+    segment = 2 ** min(max(math.floor(math.log2(n / 4)), 5), 7) if n > 0 else 32  # 32..128, at least ~7 segments
     b2, k = _domain_values(x, segment, d)
     values = b2[np.isfinite(b2)]
     if values.size == 0 or k < 2:
         return Bicoherence(float("nan"), float("nan"), False)
     threshold = CHI2_2DOF_95 / (2 * k)
-    ngi = float(values.mean() - threshold)  # the mean over the principal domain against its 95 % level
-    nli = float(abs(values.max() - (values.mean() + 2 * values.std())))
-    excess = float(values.mean() - 1.0 / k)
-    peak_excess = float(values.max() - (1.0 - values.size ** (-1.0 / (k - 1))))
+    mean, peak = float(values.mean()), float(values.max())
+    ngi = mean - threshold  # the mean over the principal domain against its 95 % level
+    nli = abs(peak - (mean + 2 * float(values.std())))
+    excess = mean - 1.0 / k
+    peak_excess = peak - (1.0 - values.size ** (-1.0 / (k - 1)))
     return Bicoherence(ngi, nli, bool(ngi > NGI_MIN and nli > NLI_MIN), excess, peak_excess)
 
 
