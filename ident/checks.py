@@ -55,6 +55,28 @@ def _share_in_runs(mask: np.ndarray, min_run: int) -> float:
     return float(lengths[lengths >= min_run].sum()) / mask.size
 
 
+STUCK_SHUT_OP_PCT = 10.0
+"""OP travel (% of span, one way) over a frozen PV past which the frozen PV may be a valve that does not
+move at all, not only a sensor: the controller winding up against a valve that does not open."""
+
+
+def _frozen_message(op: np.ndarray, pv: np.ndarray, run: int, start: int) -> str:
+    """What a PV that repeats one value can be.  Where OP moved one way far meanwhile, a valve stuck
+    shut (or fully stuck) looks the same as a dead sensor from OP and PV: both are said, neither chosen."""
+    head = f"PV frozen at {pv[start]:.4g} for {run} of {pv.size} samples (from sample {start}): "
+    stretch = op[start : start + run]
+    travel = float(stretch[-1] - stretch[0])
+    steps = np.diff(stretch)
+    one_way = bool(np.all(steps >= 0) or np.all(steps <= 0))
+    if abs(travel) >= STUCK_SHUT_OP_PCT and one_way:
+        return head + (
+            f"meanwhile OP moved {travel:+.3g} % one way, so this is a valve that does not move at all (stuck, or "
+            "shut) or a sensor or archive that stopped updating; OP and PV cannot tell which: check the valve "
+            "and the transmitter"
+        )
+    return head + "a sensor or archive that stopped updating"
+
+
 def data_checks(op: np.ndarray, pv: np.ndarray) -> list[Check]:
     """Every data problem of the window, the blocking ones first."""
     op, pv = np.asarray(op, float), np.asarray(pv, float)
@@ -73,14 +95,7 @@ def data_checks(op: np.ndarray, pv: np.ndarray) -> list[Check]:
         run, start = _longest_run(pv)
         distinct = np.unique(pv).size
         if run >= FROZEN_SHARE * n and run >= 50:
-            out.append(
-                Check(
-                    "frozen_pv",
-                    True,
-                    f"PV frozen at {pv[start]:.4g} for {run} of {n} samples (from sample {start}): "
-                    "a sensor or archive that stopped updating",
-                )
-            )
+            out.append(Check("frozen_pv", True, _frozen_message(op, pv, run, start)))
         elif distinct < MIN_DISTINCT_PV:
             out.append(
                 Check(

@@ -74,7 +74,9 @@ def _summary(path: str, r) -> str:
         f"{path}",
         f"  verdict {r.verdict.replace('_', ' ')}{cause}{p}",
         f"  S {f(r.s_pct, 2)} +- {f(r.s_se_pct, 2)} %  J {f(r.j_pct, 2)} +- {f(r.j_se_pct, 2)} % of span"
-        f"   fs {f(r.fs_pct)} %  fd {f(r.fd_pct)} %  (of 500 lbf){se}",
+        f"   fs {f(r.fs_pct)} %  fd {f(r.fd_pct)} %  (of 500 lbf){se}"
+        if r.s_pct is not None or r.fs_pct is not None
+        else "  S, J: not read (the warnings say why)",
         f"  period {f(r.period_s)} s   method {r.method}   denoised {'yes' if r.denoised else 'no'}"
         f"   ood {f(r.ood_score, 2)}   thesis chain: fs {f(r.thesis.fs_pct)} %  fd {f(r.thesis.fd_pct)} %",
         f"  process {_process_line(r.process)}",

@@ -58,3 +58,17 @@ def test_random_batches_agree_with_the_row_by_row_checks():
         pv[::4, : n // 2] = pv[::4, :1]
         got = data_checks_rows(op, pv)
         assert got == [data_checks(op[i], pv[i]) for i in range(w)]
+
+
+def test_a_pv_frozen_while_op_winds_one_way_names_a_valve_that_does_not_move_beside_the_sensor():
+    n = 600
+    t = np.arange(n)
+    pv = np.r_[np.linspace(0.3, 0.0, 100), np.zeros(n - 100)]  # a flow that fell to nothing and stayed there
+    ramp = 5 + 0.1 * t  # the controller winding up: 50 % of span over the frozen stretch
+    (frozen,) = [c for c in data_checks(ramp, pv) if c.name == "frozen_pv"]
+    assert frozen.blocks and "a valve that does not move at all" in frozen.message
+    assert "a sensor or archive that stopped updating" in frozen.message and "cannot tell which" in frozen.message
+    # OP that wanders both ways over the same frozen PV: no reason to think of the valve
+    wander = 50 + 10 * np.sin(t / 30)
+    (frozen,) = [c for c in data_checks(wander, pv) if c.name == "frozen_pv"]
+    assert "valve" not in frozen.message and "a sensor or archive that stopped updating" in frozen.message

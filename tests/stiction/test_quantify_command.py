@@ -86,6 +86,11 @@ def test_rank_puts_the_sticky_valve_first_and_the_dead_sensor_last(loops, tmp_pa
     assert order[-1] == "dead" and verdicts["dead"] == "bad_data"
     assert verdicts["load"] != "stiction"
     assert "3 loops: 1 stiction" in printed
+    # the dead sensor's summary says that nothing was read rather than printing a line of dashes
+    assert main(["quantify", str(plant / "dead.csv")]) == 0
+    summary = capsys.readouterr().out
+    assert "verdict bad data" in summary and "S, J: not read (the warnings say why)" in summary
+    assert "- +- -" not in summary
 
 
 def test_csv_without_rank_is_refused(loops, capsys):
