@@ -9,9 +9,13 @@ and the gain in fit is measured (``ident.diagnose``).  ``--json`` prints one obj
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
+from collections import deque
+from collections.abc import Iterator
 from functools import partial
+from itertools import chain
 from pathlib import Path
 
 from stiction.commands import exports
@@ -28,6 +32,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     exports.add_arguments(p, FIELDS)
     p.add_argument("--plot", type=Path, metavar="DIR", help="write one PNG per loop into DIR")
     p.add_argument("--max-causes", type=int, default=4, help="most causes named per loop (default 4)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=min(os.cpu_count() or 1, 4),
+        help="windows diagnosed at once on worker processes, a core each, answered in the files' order "
+        "(default: the cores, at most 4; one window is diagnosed in this process)",
+    )
 
 
 def _summary(path: str, r) -> str:
@@ -104,33 +115,66 @@ def progress_line(done: int, failed: int, path: str, samples: int, elapsed_s: fl
     )
 
 
+def _diagnose(path: Path, export, max_causes: int):
+    """(report, record, diagnosis) of one window (on a worker process where ``--jobs`` is above 1)."""
+    from stiction.ident.report import diagnose_loop
+
+    return diagnose_loop(
+        path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, None, max_causes, export.sp
+    )
+
+
+def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:
+    """(path, export, (report, record, diagnosis) or the StictionError) of every window, in order.  With
+    ``jobs`` above 1 and more than one window, the windows run on that many worker processes, at most
+    two each waiting, so that a folder of thousands of exports is read as it is answered."""
+    first, second = next(items, None), next(items, None)
+    ahead = [x for x in (first, second) if x is not None]
+    if jobs <= 1 or second is None:
+        for path, export in chain(ahead, items):
+            try:
+                yield path, export, _diagnose(path, export, max_causes)
+            except StictionError as e:  # one bad file never stops the others
+                yield path, export, e
+        return
+    from stiction.quantify.identified import sizing_pool  # spawned workers, one BLAS thread each
+
+    def done(entry):
+        path, export, future = entry
+        try:
+            return path, export, future.result()
+        except StictionError as e:
+            return path, export, e
+
+    pending: deque = deque()
+    with sizing_pool(jobs) as pool:
+        for path, export in chain(ahead, items):
+            pending.append((path, export, pool.submit(_diagnose, path, export, max_causes)))
+            while len(pending) > 2 * jobs:
+                yield done(pending.popleft())
+        while pending:
+            yield done(pending.popleft())
+
+
 def run(args: argparse.Namespace) -> int:
-    from stiction.ident.report import MIN_SAMPLES, diagnose_loop
+    from stiction.ident.report import MIN_SAMPLES
 
     if args.max_causes < 0:
         raise StictionError(f"--max-causes {args.max_causes}: expected 0 or more")
+    if args.jobs < 1:
+        raise StictionError(f"--jobs {args.jobs}: at least 1")
     failed: list[str] = []
     started, due, done = time.monotonic(), Every(PROGRESS_EVERY_S), 0
-    for path, export in exports.windows(args, "diagnose", FIELDS, MIN_SAMPLES, failed):
+    windows = exports.windows(args, "diagnose", FIELDS, MIN_SAMPLES, failed)
+    for path, export, outcome in _outcomes(windows, args.jobs, args.max_causes):
         if due():  # a folder of long records takes minutes: say where it is, on stderr (stdout stays the reports')
             print(progress_line(done, len(failed), str(path), export.op.size, time.monotonic() - started),
                   file=sys.stderr, flush=True)  # fmt: skip
         done += 1
-        try:
-            report, record, d = diagnose_loop(
-                path.stem,
-                export.op,
-                export.pv,
-                export.ts_s,
-                export.mv,
-                export.warnings,
-                None,
-                args.max_causes,
-                export.sp,
-            )
-        except StictionError as e:  # one bad file never stops the others
-            failed.append(exports.report_error("diagnose", path, e))
+        if isinstance(outcome, StictionError):
+            failed.append(exports.report_error("diagnose", path, outcome))
             continue
+        report, record, d = outcome
         exports.show(
             args, path, export, report, _summary(str(path), report), partial(_plot, record=record, d=d, report=report)
         )

@@ -74,11 +74,19 @@ def test_a_long_run_says_where_it_is_on_stderr_and_the_reports_stay_on_stdout(lo
 
     monkeypatch.setattr(command, "PROGRESS_EVERY_S", 1e-9)  # every file, as every 10 s on a long run
     files = [str(loops / name) for name in ("short.csv", "dt_no_mv.csv", "dt.csv")]
-    assert main(["diagnose", "--json", *files]) == 2
-    out, err = capsys.readouterr()
+    runs = {}
+    for jobs in (1, 2):  # in this process, and on two worker processes: the same answers in the same order
+        assert main(["diagnose", "--json", "--jobs", str(jobs), *files]) == 2
+        runs[jobs] = capsys.readouterr()
+    out, err = runs[2]
     assert [json.loads(line)["cause"] for line in out.strip().splitlines()] == ["dead_time", "dead_time"]
+    assert [json.loads(line)["loop_id"] for line in out.strip().splitlines()] == ["dt_no_mv", "dt"]
+    assert out == runs[1].out
     progress = [line for line in err.splitlines() if "window(s) done" in line]
     assert progress[-1].startswith("diagnose: 1 window(s) done, 1 file(s) failed") and "dt.csv" in progress[-1]
+    assert "short.csv: 30 samples, need at least 100" in err
+    assert main(["diagnose", "--jobs", "0", files[1]]) == 2
+    assert "--jobs 0: at least 1" in capsys.readouterr().err
 
 
 def test_the_summary_says_s_and_j_were_not_read_instead_of_printing_dashes():
