@@ -58,6 +58,8 @@ def _share_in_runs(mask: np.ndarray, min_run: int) -> float:
 STUCK_SHUT_OP_PCT = 10.0
 """OP travel (% of span, one way) over a frozen PV past which the frozen PV may be a valve that does not
 move at all, not only a sensor: the controller winding up against a valve that does not open."""
+ONE_WAY_SLACK = 1.25
+"""OP went one way over the stretch when its range is within this factor of its net travel."""
 
 
 def _frozen_message(op: np.ndarray, pv: np.ndarray, run: int, start: int) -> str:
@@ -66,8 +68,7 @@ def _frozen_message(op: np.ndarray, pv: np.ndarray, run: int, start: int) -> str
     head = f"PV frozen at {pv[start]:.4g} for {run} of {pv.size} samples (from sample {start}): "
     stretch = op[start : start + run]
     travel = float(stretch[-1] - stretch[0])
-    steps = np.diff(stretch)
-    one_way = bool(np.all(steps >= 0) or np.all(steps <= 0))
+    one_way = float(np.ptp(stretch)) <= ONE_WAY_SLACK * abs(travel)  # its noise may wiggle, not turn back
     if abs(travel) >= STUCK_SHUT_OP_PCT and one_way:
         return head + (
             f"meanwhile OP moved {travel:+.3g} % one way, so this is a valve that does not move at all (stuck, or "
