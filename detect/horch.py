@@ -31,15 +31,9 @@ class Horch:
     """``stiction``, ``no_stiction`` or ``undecided``."""
 
 
-def ccf(u: np.ndarray, e: np.ndarray, max_lag: int) -> tuple[np.ndarray, np.ndarray]:
-    """Lags ``-max_lag..max_lag`` and the normalised cross-correlation ``E[u(t) e(t + lag)]``."""
-    u, e = u - u.mean(), e - e.mean()
-    c = _lagged_products(u, e, max_lag) / (u.size * np.std(u) * np.std(e) + 1e-300)
-    return np.arange(-max_lag, max_lag + 1), c
-
-
 def _lagged_products(u: np.ndarray, e: np.ndarray, max_lag: int) -> np.ndarray:
-    """``sum_t u(t) e(t + lag)`` for lags ``-max_lag..max_lag``, by FFT."""
+    """``sum_t u(t) e(t + lag)`` for lags ``-max_lag..max_lag``, by FFT: the cross-correlation of the two
+    detrended signals less its normalisation, which moves no sign change."""
     n = u.size
     size = 1 << int(np.ceil(np.log2(2 * n)))
     c = np.fft.irfft(np.conj(np.fft.rfft(u, size)) * np.fft.rfft(e, size), size)
