@@ -32,9 +32,10 @@ class Check:
     message: str
 
 
-def flat(x: np.ndarray) -> bool:
-    """Whether a signal moves no more than its own rounding (a constant 3.5e-44 is a dead sensor)."""
-    return float(np.ptp(x)) <= FLAT_REL * max(1.0, float(np.max(np.abs(x))))
+def flat(x: np.ndarray):
+    """Whether a signal moves no more than its own rounding (a constant 3.5e-44 is a dead sensor); of each
+    row of a [W, N] batch, an array of W."""
+    return np.ptp(x, axis=-1) <= FLAT_REL * np.maximum(1.0, np.max(np.abs(x), axis=-1))
 
 
 def _longest_run(x: np.ndarray) -> tuple[int, int]:
@@ -154,9 +155,6 @@ def data_checks_rows(op: np.ndarray, pv: np.ndarray) -> list[list[Check]]:
     if n < 2:
         return [data_checks(op[i], pv[i]) for i in range(w)]
 
-    def flat_rows(x):
-        return np.ptp(x, axis=1) <= FLAT_REL * np.maximum(1.0, np.max(np.abs(x), axis=1))
-
     pv_repeats = np.count_nonzero(np.diff(pv, axis=1) == 0, axis=1)
     lo, hi = pv.min(axis=1, keepdims=True), pv.max(axis=1, keepdims=True)
     inner = (pv > lo) & (pv < hi)  # two distinct values strictly inside the range make four in all
@@ -166,10 +164,10 @@ def data_checks_rows(op: np.ndarray, pv: np.ndarray) -> list[list[Check]]:
     at_limit = np.maximum(np.count_nonzero(op == op.max(axis=1, keepdims=True), axis=1),
                           np.count_nonzero(op == op.min(axis=1, keepdims=True), axis=1))  # fmt: skip
     may_fire = (
-        flat_rows(pv)
+        flat(pv)
         | (pv_repeats + 1 >= max(FROZEN_SHARE * n, 50))  # a frozen run of r samples repeats r - 1 times
         | ~(inner_lo < inner_hi)
-        | flat_rows(op)
+        | flat(op)
         | (at_limit >= PINNED_WARN_SHARE * n)
         | (np.mean(held, axis=1) >= HELD_OP_SHARE - 1e-9)
     )
