@@ -268,24 +268,14 @@ three quarters of the time moving them: 0.57 s against 0.15 s a call (``stiction
 
 
 @njit(cache=True, nogil=True)
-def iir_rows(b, a, x):
+def iir_rows(b, a, x, horizon, skip):
     """Each row of ``x`` [R, N] through ``b(q^-1) / a(q^-1)`` from rest:
     ``a0 y[k] = sum b_i x[k-i] - sum_{i>0} a_i y[k-i]``.  Time runs in the outer loop and a block of
-    ``IIR_BLOCK_ROWS`` rows in the inner one; the numerator's zero taps (a dead time's) are skipped."""
-    return _iir_rows(b, a, x, 0, 0)
-
-
-@njit(cache=True, nogil=True)
-def iir_rows_changed(b, a, x, horizon, skip):
-    """``iir_rows`` of ``x`` compared as a record compares it (``ident.record.Record.compared``): each
-    filtered row's change over ``horizon`` samples, from sample ``skip`` of the changes on, written
-    straight from the block's buffer (the filtered batch and its change were two more arrays of the
-    batch's size, a tenth of a diagnosis)."""
-    return _iir_rows(b, a, x, horizon, skip)
-
-
-@njit(cache=True, nogil=True)
-def _iir_rows(b, a, x, horizon, skip):
+    ``IIR_BLOCK_ROWS`` rows in the inner one; the numerator's zero taps (a dead time's) are skipped.
+    With ``horizon`` above 0 each row comes out compared as a record compares it
+    (``ident.record.Record.compared``): its change over ``horizon`` samples from the ``skip``-th change
+    on, written straight from the block's buffer (the filtered batch and its change were two more arrays
+    of the batch's size, a tenth of a diagnosis)."""
     rows, n = x.shape
     width = n - horizon - skip if horizon > 0 else n
     out = np.empty((rows, max(width, 0)))

@@ -55,16 +55,14 @@ class TransferFunction:
 
     def response(self, u: np.ndarray) -> np.ndarray:
         """[B, N] inputs (mean valve position over each interval) -> [B, N] PV from rest."""
-        u = np.asarray(u, dtype=float)
-        rows = np.ascontiguousarray(u.reshape(-1, u.shape[-1]))
-        return kernels.iir_rows(np.asarray(self.b, float), np.asarray(self.a, float), rows).reshape(u.shape)
+        return self.response_changed(u, 0, 0)
 
     def response_changed(self, u: np.ndarray, horizon: int, skip: int) -> np.ndarray:
         """``response`` of [..., N] inputs, each row's change over ``horizon`` samples from the ``skip``-th
-        change on (``ident.record.Record.compared`` of the response, in one pass)."""
+        change on (``ident.record.Record.compared`` of the response, in one pass); horizon 0: the response."""
         u = np.asarray(u, dtype=float)
         rows = np.ascontiguousarray(u.reshape(-1, u.shape[-1]))
-        out = kernels.iir_rows_changed(np.asarray(self.b, float), np.asarray(self.a, float), rows, horizon, skip)
+        out = kernels.iir_rows(np.asarray(self.b, float), np.asarray(self.a, float), rows, horizon, skip)
         return out.reshape(*u.shape[:-1], out.shape[-1])
 
     def free_responses(self, n: int) -> np.ndarray:

@@ -54,8 +54,6 @@ class Record:
 
     def compared_response(self, tf, u: np.ndarray) -> np.ndarray:
         """``compared(tf.response(u))`` in one pass (``tf``: an ``ident.process.TransferFunction``)."""
-        if self.horizon < 1:
-            return self.compared(tf.response(u))
         return tf.response_changed(u, self.horizon, self.skip)
 
     @property
