@@ -102,6 +102,20 @@ def _diagnosis_title(report) -> str:
                                                                            TITLE_WIDTH), report.warnings)  # fmt: skip
 
 
+MODEL_REACH = 1.0
+"""A model's PV is drawn on the measured PV's axis while it stays within this many measured ranges of it."""
+
+
+def pv_limits(measured: np.ndarray, models: list[np.ndarray]) -> tuple[float, float] | None:
+    """The PV axis when a model strays more than ``MODEL_REACH`` measured ranges beyond the measured PV:
+    the measured range with half a range either side, so that a model gone wild (a canonical model off by
+    hundreds of percent) does not flatten the measured PV into a line; None while every model stays near."""
+    lo, hi = float(np.min(measured)), float(np.max(measured))
+    span = max(hi - lo, 1e-9 * max(1.0, abs(hi)))
+    far = [m for m in models if np.min(m) < lo - MODEL_REACH * span or np.max(m) > hi + MODEL_REACH * span]
+    return (lo - span / 2, hi + span / 2) if far else None
+
+
 SPECTRUM_FLOOR = 1e-3
 """The residuals' spectra are shown down to this share of the lower model's median power."""
 
@@ -116,26 +130,36 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
     fig, axes = plt.subplots(2, 2, figsize=(14, 7.6 + TITLE_LINE_IN * (title.count("\n") + 1)),
                              gridspec_kw={"width_ratios": [1.7, 1]})  # fmt: skip
     ax = axes[0, 0]
+    models = {
+        "canonical model": simulated_pv(d.base.fit, record),
+        "extended model": simulated_pv(d.extended.fit, record),
+    }
     ax.plot(t, record.pv_pct, color="0.35", lw=0.8, label="PV measured")
-    ax.plot(t, simulated_pv(d.base.fit, record), color="tab:red", lw=1.0, label="canonical model")
-    ax.plot(t, simulated_pv(d.extended.fit, record), color="tab:blue", lw=1.0, label="extended model")
+    for (label, pv), color in zip(models.items(), ("tab:red", "tab:blue"), strict=True):
+        ax.plot(t, pv, color=color, lw=1.0, label=label)
+    limits = pv_limits(record.pv_pct, list(models.values()))
+    if limits is not None:
+        ax.set_ylim(*limits)
+        ax.text(0.01, 0.02, "a model runs off this axis: its fit error is in the title", transform=ax.transAxes,
+                fontsize=8, color="tab:red")  # fmt: skip
     ax.set_ylabel("PV, %")
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title("PV: the models driven by the measured OP", fontsize=9)
     ax = axes[1, 0]
     ax.plot(t, record.op_pct, color="tab:green", lw=0.8, label="OP")
-    ax.plot(t, stem_path(d.extended.fit, record), color="tab:blue", lw=1.0, label="stem (extended model)")
+    stem = stem_path(d.extended.fit, record)
+    ax.plot(t, stem, color="tab:blue", lw=1.0, label="stem (extended model)")
     slips = d.extended.fit.slips
     if slips.at.size:
-        ax.plot(t[slips.at], stem_path(d.extended.fit, record)[slips.at], "|", color="k", ms=8, label="slips")
+        ax.plot(t[slips.at], stem[slips.at], "|", color="k", ms=8, label="slips")
     ax.set_xlabel("time, s")
     ax.set_ylabel("OP, stem, %")
     ax.legend(loc="upper right", fontsize=8)
     ax = axes[0, 1]
     # the model behind, the measured loop drawn over it: where they differ the measured one must stay readable
-    ax.plot(record.op_pct, simulated_pv(d.extended.fit, record), "-", lw=0.6, color="tab:blue", alpha=0.45,
+    ax.plot(record.op_pct, models["extended model"], "-", lw=0.6, color="tab:blue", alpha=0.45,
             label="extended model")  # fmt: skip
-    ax.plot(record.op_pct, record.pv_pct, ".-", ms=2, lw=0.3, color="0.15", label="measured")
+    ax.plot(record.op_pct, record.pv_pct, ".", ms=2, color="0.15", label="measured")
     ax.set_xlabel("OP, %")
     ax.set_ylabel("PV, %")
     ax.legend(loc="best", fontsize=8)

@@ -3,6 +3,7 @@
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from stiction.plots import TITLE_WIDTH, _diagnosis_title, _title, plot_loop
 
@@ -71,3 +72,17 @@ def test_the_inlpca_curve_is_drawn_only_over_a_cycle(tmp_path):
         img = mpimg.imread(plot_loop(tmp_path / f"{oscillating}.png", window, report, details))
         red[oscillating] = int(((img[..., 0] > 0.7) & (img[..., 1] < 0.3) & (img[..., 2] < 0.3)).sum())  # tab:red
     assert red[True] > 200 and red[False] == 0
+
+
+def test_a_model_gone_wild_does_not_flatten_the_measured_pv():
+    from stiction.plots import pv_limits
+
+    measured = 0.3 * np.exp(-np.arange(700) / 30)  # a flow that fell to nothing, 0-0.3 %
+    near = measured + 0.05
+    wild = np.linspace(1200, -800, 700)  # a canonical model off by a thousand percent
+    assert pv_limits(measured, [near]) is None  # models near the data: the axis is left to matplotlib
+    lo, hi = pv_limits(measured, [near, wild])
+    assert lo == pytest.approx(-0.15, abs=1e-6) and hi == pytest.approx(0.45, abs=1e-6)
+    flat = np.full(700, 48.0)  # a measured PV that never moves: an axis around it, not one of zero height
+    lo, hi = pv_limits(flat, [flat + 5.0])
+    assert lo < 48.0 < hi
