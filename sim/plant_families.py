@@ -25,13 +25,17 @@ store them, so that neither artefact tells a cause.
 
 A window is labelled by what it shows, not by the valve it was given: ``shows_fault`` where the
 stem stood still at least twice in the recorded window while OP travelled half the band or more,
-and then moved (a slip, or the end of the backlash's play).  A sticky valve the loop never
-exercises in the window is a healthy-looking window, and is labelled so.
+and then moved (a slip, or the end of the backlash's play), and where the fault changed the record
+by more than its noise: the same loop with a healthy valve (the same loads, noise and setpoint
+moves) is simulated beside it, and PV's difference between the two, RMS over the window, must
+reach the measurement noise's standard deviation (``VISIBLE_EFFECT``).  A sticky valve the loop
+never exercises in the window, or whose effect the noise hides, is a healthy-looking window, and
+is labelled so.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -63,6 +67,11 @@ Thornhill's book and Jelali & Huang's benchmark read 0.5-5 %, the measured 2411F
 up to 10 % for a badly worn valve."""
 FAULT_TRAVEL_SHARE = 0.5
 """OP travel over a stuck stretch, as a share of S, that counts as exercising the band."""
+VISIBLE_EFFECT = 1.0
+"""The fault's effect on the record that counts as shown: PV's difference from the same loop with a
+healthy valve, RMS over the window, in standard deviations of the measurement noise.  An effect under
+the noise is one no test reading OP and PV sees (the valve's stem slipped, the record did not say so).
+Set at one noise before any detector was judged against it, not tuned."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +109,13 @@ class FamilyRecord:
     ts_s: float
     shows_fault: bool
     stuck_events: int
+    effect_noise: float = 0.0
+    """The fault's effect on PV over the measurement noise (``VISIBLE_EFFECT``); 0 for a healthy valve."""
+
+    @property
+    def stem_slipped(self) -> bool:
+        """The valve's nonlinearity exercised (``FAULT_EVENTS`` stuck-then-moved events), shown or not."""
+        return self.stuck_events >= FAULT_EVENTS
 
 
 def _process(rng: np.random.Generator, family: str, aggressive: float | None) -> tuple[ProcessModel, float, int]:
@@ -252,6 +268,18 @@ def stuck_events(op: np.ndarray, mv: np.ndarray, s_pct: float) -> int:
     return events
 
 
+def healthy(spec: LoopSpec) -> LoopSpec:
+    """The same loop with a valve that neither sticks nor has backlash."""
+    return replace(
+        spec, fs_pct=0.0, fd_pct=0.0, valve="physical", extensions=replace(spec.extensions, deadband_pct=0.0)
+    )
+
+
+def effect_noise(pv: np.ndarray, healthy_pv: np.ndarray, noise_pct: float) -> float:
+    """RMS of PV's difference from the healthy valve's, in standard deviations of the noise."""
+    return float(np.sqrt(np.mean((pv - healthy_pv) ** 2)) / max(noise_pct, 1e-12))
+
+
 def simulate_families(
     loops: list[FamilyLoop], warmup_windows: float = 1.0, samples: int = WINDOW_SAMPLES
 ) -> list[FamilyRecord]:
@@ -270,8 +298,13 @@ def simulate_families(
             z[row] = _noise(loops[i], n, rng)
             for share, step_pct in loops[i].sp_steps:
                 moves[row, start + int(share * samples * every) :] += step_pct
-        op, pv, mv = run_batch(build_batch([loops[i].spec for i in idx]), w, z - moves)
-        pv = pv + moves
+        faults = [row for row, i in enumerate(idx) if loops[i].fault]
+        specs = [loops[i].spec for i in idx] + [healthy(loops[idx[row]].spec) for row in faults]
+        op, pv, mv = run_batch(
+            build_batch(specs), np.vstack([w, w[faults]]), np.vstack([z - moves, (z - moves)[faults]])
+        )
+        twin_pv = dict(zip(faults, pv[len(idx) :], strict=True))
+        op, pv, mv = op[: len(idx)], pv[: len(idx)] + moves, mv[: len(idx)]
         keep = slice(start + every - 1, n, every)
         for row, i in enumerate(idx):
             loop = loops[i]
@@ -282,8 +315,14 @@ def simulate_families(
             if loop.compression_pct > 0:
                 o, p = compress(o, loop.compression_pct), compress(p, loop.compression_pct)
             events = stuck_events(op[row, start:], mv[row, start:], loop.s_pct) if loop.fault else 0
+            effect = (
+                effect_noise(pv[row, keep] - moves[row, keep], twin_pv[row][keep], loop.noise_pct)
+                if loop.fault
+                else 0.0
+            )
             sp = loop.spec.sp_pct + moves[row, keep]
-            out[i] = FamilyRecord(o, p, sp, float(every), events >= FAULT_EVENTS, events)
+            shows = events >= FAULT_EVENTS and effect >= VISIBLE_EFFECT
+            out[i] = FamilyRecord(o, p, sp, float(every), shows, events, effect)
     return out
 
 

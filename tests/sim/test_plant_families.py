@@ -1,11 +1,21 @@
 """The families' sticky valves at the two band scales: the same loops but for their bands, and the
 plant-scale bands are the gaps their stems break at."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from stiction.sim.loop import build_batch, run_batch
-from stiction.sim.plant_families import FAULTS, PLANT_BAND_PCT, family_loops
+from stiction.sim.plant_families import (
+    FAULT_EVENTS,
+    FAULTS,
+    PLANT_BAND_PCT,
+    VISIBLE_EFFECT,
+    family_loops,
+    healthy,
+    simulate_families,
+)
 
 
 def test_plant_scale_bands_are_drawn_over_the_plant_range_and_the_thesis_scale_is_wider():
@@ -52,3 +62,34 @@ def test_a_plant_scale_valve_breaks_away_at_half_its_band_and_slip():
 def test_an_unknown_band_scale_is_named():
     with pytest.raises(ValueError, match="bands 'huge'"):
         family_loops(1, 1, bands="huge")
+
+
+def test_a_faults_effect_is_pv_against_the_same_loop_with_a_healthy_valve():
+    """The label's effect, computed beside many loops in one batch, equals the loop simulated alone
+    against its healthy twin simulated alone (the same loads, noise and setpoint moves)."""
+    loops = [
+        loop
+        for loop in family_loops(2, 21, bands="plant")
+        if loop.fault and loop.quantum_pct == 0 and loop.compression_pct == 0
+    ][:6]
+    batch = simulate_families(loops)
+    for loop, rec in zip(loops, batch, strict=True):
+        (alone,) = simulate_families([loop])
+        (twin,) = simulate_families([replace(loop, cause="noise", spec=healthy(loop.spec))])
+        expected = np.sqrt(np.mean((alone.pv - twin.pv) ** 2)) / loop.noise_pct
+        assert rec.effect_noise == pytest.approx(expected, rel=1e-9, abs=1e-12)
+        assert twin.effect_noise == 0.0 and not twin.shows_fault
+
+
+def test_a_stem_that_slips_under_noise_that_hides_it_is_no_fault_the_window_shows():
+    """The same sticky flow valve, exercised either way: under its own noise the slips change PV by more
+    than the noise (a fault shown); under thirty times the noise the stem slips hundreds of times but
+    the record is the healthy valve's within the noise, and is labelled healthy-looking."""
+    loops = [loop for loop in family_loops(3, 11, ("flow",), bands="plant") if loop.cause == "stick_slip"]
+    shown = []
+    for loop in loops:
+        quiet, loud = simulate_families([loop, replace(loop, noise_pct=30 * loop.noise_pct)])
+        assert loud.stuck_events >= FAULT_EVENTS and loud.effect_noise < VISIBLE_EFFECT and not loud.shows_fault
+        shown.append(quiet.shows_fault)
+        assert quiet.shows_fault == (quiet.stuck_events >= FAULT_EVENTS and quiet.effect_noise >= VISIBLE_EFFECT)
+    assert any(shown)
