@@ -277,6 +277,8 @@ def iir_rows(b, a, x, horizon, skip):
     on, written straight from the block's buffer (the filtered batch and its change were two more arrays
     of the batch's size, a tenth of a diagnosis)."""
     rows, n = x.shape
+    if a[0] != 1.0:  # a monic denominator: no division a sample (a quarter of the filter's time)
+        b, a = b / a[0], a / a[0]
     width = n - horizon - skip if horizon > 0 else n
     out = np.empty((rows, max(width, 0)))
     taps = np.flatnonzero(b[1:]) + 1
@@ -299,8 +301,6 @@ def iir_rows(b, a, x, horizon, skip):
             for i in range(1, min(a.size, k + 1)):
                 for r in range(m):
                     by[k, r] -= a[i] * by[k - i, r]
-            for r in range(m):
-                by[k, r] /= a[0]
         if horizon > 0:
             for r in range(m):
                 for j in range(width):

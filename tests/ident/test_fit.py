@@ -74,6 +74,21 @@ def test_a_batch_of_inputs_goes_through_the_process_as_scipys_lfilter_filters_it
         np.testing.assert_allclose(record.compared_response(tf, u), want, rtol=1e-12, atol=1e-12)
 
 
+def test_the_filter_kernel_reads_a_denominator_that_is_not_monic_as_lfilter_does():
+    """Every process model's denominator starts with 1, and the kernel skips the division a sample there;
+    any other is normalised first, not read as monic."""
+    from scipy.signal import lfilter
+
+    from stiction.ident.kernels import iir_rows
+
+    rng = np.random.default_rng(4)
+    b, a = np.array([0.0, 0.6, 0.0, -0.2]), np.array([2.5, -1.5, 0.4])
+    x = rng.standard_normal((19, 120))
+    np.testing.assert_allclose(iir_rows(b, a, x, 0, 0), lfilter(b, a, x, axis=-1), rtol=1e-12, atol=1e-12)
+    want = lfilter(b, a, x, axis=-1)
+    np.testing.assert_allclose(iir_rows(b, a, x, 3, 5), want[:, 8:] - want[:, 5:-3], rtol=1e-12, atol=1e-12)
+
+
 def test_exact_parameters_reproduce_a_noise_free_loop():
     """The valve model's landings and the plant's response explain a clean record to rounding."""
     spec = LoopSpec(33.2, 19.4, extensions=Extensions(dead_time_s=2.6))
