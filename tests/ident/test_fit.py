@@ -213,3 +213,34 @@ def test_read_slips_a_sample_or_two_off_are_moved_back_to_where_the_stem_slipped
     error_before, error_after = np.mean(np.abs(moved - at)), np.mean(np.abs(refined.slips - at))
     assert error_after < 0.35 * error_before, (error_before, error_after)
     assert F._slip_times_refined(record, hyp, StemPath(at, directions, levels, 0.01), 1.0) is None  # the truth stays
+
+
+@pytest.mark.parametrize(
+    "hyp",
+    [M.Hypothesis(), M.Hypothesis(gain_free=True), M.Hypothesis(actuator_tau_s=2.0, gain_free=True)],
+    ids=["fixed gain", "gain free", "moving drive"],
+)
+def test_the_batch_least_squares_match_a_plain_fit_on_projected_regressors(hyp):
+    """``_batch_fit`` projects the nuisances out in the normal equations; the reference projects them out of
+    every regressor and solves each candidate with lstsq."""
+    from stiction.ident.objective import nuisance_basis
+
+    rng = np.random.default_rng(8)
+    r = simulate([LoopSpec(30.0, 12.0, seed=3)]).kept()
+    record = Record(r.op[0], r.pv[0], 1.0)
+    tf = transfer_function(hyp.dynamics, 1.0)
+    q = nuisance_basis(record, tf, 2 * np.pi / 90.0)
+    # candidates' regressors: steps at random times (as the stem's pieces are) plus a ramp
+    steps = np.cumsum(rng.standard_normal((6, 4, record.n)) * (rng.random((6, 4, record.n)) < 0.02), axis=-1)
+    regs = steps + np.linspace(0, 1, record.n) * rng.standard_normal((6, 4, 1)) + 30.0
+    rss, coef = F._batch_fit(record, hyp, regs, tf, q, 0.7)
+    p = np.eye(record.n_fit) - q @ q.T
+    rows = M.solved_rows(hyp)
+    for c in range(regs.shape[0]):
+        x = p @ record.compared_response(tf, regs[c]).T  # [n_fit, 4]
+        y = p @ record.target if hyp.gain_free else p @ record.target - 0.7 * x[:, 0]
+        want, *_ = np.linalg.lstsq(x[:, rows], y, rcond=None)
+        resid = y - x[:, rows] @ want
+        assert rss[c] == pytest.approx(resid @ resid, rel=1e-8)
+        np.testing.assert_allclose(coef[c, rows], want, rtol=1e-6, atol=1e-9 * np.abs(want).max())
+        assert hyp.gain_free or coef[c, 0] == 0.7
