@@ -16,6 +16,10 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert sum(r["show_fault"] for r in fig["by_band"].values()) == faults
     assert sum(r["show_fault"] for r in fig["by_slip_noise"].values()) == faults
     assert shown and all(0.0 <= r["called"] <= 1.0 for r in shown)
+    # every window that shows a fault had its stem slip; some that slipped the noise hid
+    slipped = sum(r["show_fault"] for r in fig["by_effect_noise"].values())
+    assert slipped >= faults and fig["by_effect_noise"]["0-1"]["show_fault"] == slipped - faults
+    assert all(0.0 <= r["ours_stem_slipped"]["balanced"] <= 1.0 for r in fig["families"].values())
     m = fig["measured"]
     assert m["windows"] == 60 and m["sticky"] == 27
     for key in METHODS:
@@ -29,3 +33,4 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
     assert "another simulator" in out
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
+    assert "effect on PV over the noise" in out and "the label before" in out
