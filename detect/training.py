@@ -1,5 +1,5 @@
 """Training sets for the detector: simulated plant loops in families (``sim.plant_families``),
-labelled by what each window shows, the thesis's own sticky loops, and (optionally) labelled
+labelled sticky where the valve's stem slipped in the window, the thesis's own sticky loops, and (optionally) labelled
 measured windows given as feature vectors.
 
 A window is ``stiction`` where its valve's stem slipped in the window (a valve fault in the two-parameter

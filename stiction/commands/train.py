@@ -102,8 +102,8 @@ def train_detector(args: argparse.Namespace) -> int:
     trained_on = (
         f"{n_per_cause} simulated loops per cause and family of sim.plant_families at the thesis's bands (seed "
         f"{args.seed + training.SIM_SEED}) and {round(training.PLANT_SHARE * n_per_cause)} at plant-scale bands (seed "
-        f"{args.seed + training.SIM_SEED + training.PLANT_SEED_OFFSET}, the cycle model only), labelled by what "
-        "each window shows, and "
+        f"{args.seed + training.SIM_SEED + training.PLANT_SEED_OFFSET}, the cycle model only), sticky where "
+        "the valve's stem slipped in the window, and "
         f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free)"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
