@@ -107,7 +107,6 @@ class FamilyRecord:
     pv: np.ndarray
     sp: np.ndarray
     ts_s: float
-    shows_fault: bool
     stuck_events: int
     effect_noise: float = 0.0
     """The fault's effect on PV over the measurement noise (``VISIBLE_EFFECT``); 0 for a healthy valve."""
@@ -116,6 +115,11 @@ class FamilyRecord:
     def stem_slipped(self) -> bool:
         """The valve's nonlinearity exercised (``FAULT_EVENTS`` stuck-then-moved events), shown or not."""
         return self.stuck_events >= FAULT_EVENTS
+
+    @property
+    def shows_fault(self) -> bool:
+        """The window's label: the stem slipped and that changed PV by ``VISIBLE_EFFECT`` noises or more."""
+        return self.stem_slipped and self.effect_noise >= VISIBLE_EFFECT
 
 
 def _process(rng: np.random.Generator, family: str, aggressive: float | None) -> tuple[ProcessModel, float, int]:
@@ -298,13 +302,14 @@ def simulate_families(
             z[row] = _noise(loops[i], n, rng)
             for share, step_pct in loops[i].sp_steps:
                 moves[row, start + int(share * samples * every) :] += step_pct
+        # each faulty valve's loop again with a healthy valve, in the same batch: what the fault did to PV
         faults = [row for row, i in enumerate(idx) if loops[i].fault]
         specs = [loops[i].spec for i in idx] + [healthy(loops[idx[row]].spec) for row in faults]
-        op, pv, mv = run_batch(
-            build_batch(specs), np.vstack([w, w[faults]]), np.vstack([z - moves, (z - moves)[faults]])
-        )
-        twin_pv = dict(zip(faults, pv[len(idx) :], strict=True))
-        op, pv, mv = op[: len(idx)], pv[: len(idx)] + moves, mv[: len(idx)]
+        noise = z - moves
+        op, pv_plant, mv = run_batch(build_batch(specs), np.vstack([w, w[faults]]), np.vstack([noise, noise[faults]]))
+        twin_pv = dict(zip(faults, pv_plant[len(idx) :], strict=True))
+        op, pv_plant, mv = op[: len(idx)], pv_plant[: len(idx)], mv[: len(idx)]
+        pv = pv_plant + moves
         keep = slice(start + every - 1, n, every)
         for row, i in enumerate(idx):
             loop = loops[i]
@@ -315,14 +320,9 @@ def simulate_families(
             if loop.compression_pct > 0:
                 o, p = compress(o, loop.compression_pct), compress(p, loop.compression_pct)
             events = stuck_events(op[row, start:], mv[row, start:], loop.s_pct) if loop.fault else 0
-            effect = (
-                effect_noise(pv[row, keep] - moves[row, keep], twin_pv[row][keep], loop.noise_pct)
-                if loop.fault
-                else 0.0
-            )
+            effect = effect_noise(pv_plant[row, keep], twin_pv[row][keep], loop.noise_pct) if loop.fault else 0.0
             sp = loop.spec.sp_pct + moves[row, keep]
-            shows = events >= FAULT_EVENTS and effect >= VISIBLE_EFFECT
-            out[i] = FamilyRecord(o, p, sp, float(every), shows, events, effect)
+            out[i] = FamilyRecord(o, p, sp, float(every), events, effect)
     return out
 
 

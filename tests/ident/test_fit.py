@@ -221,8 +221,8 @@ def test_read_slips_a_sample_or_two_off_are_moved_back_to_where_the_stem_slipped
     ids=["fixed gain", "gain free", "moving drive"],
 )
 def test_the_batch_least_squares_match_a_plain_fit_on_projected_regressors(hyp):
-    """``_batch_fit`` projects the nuisances out in the normal equations; the reference projects them out of
-    every regressor and solves each candidate with lstsq."""
+    """``_batch_fit`` solves every candidate's least squares at once; the reference projects the nuisances
+    out of each candidate's regressors and solves it alone with lstsq."""
     from stiction.ident.objective import nuisance_basis
 
     rng = np.random.default_rng(8)
