@@ -24,6 +24,7 @@ import numpy as np
 from stiction.sim.actuator import actuate
 from stiction.sim.disturbance import Disturbance, rms, unit_shape
 from stiction.sim.extensions import Extensions
+from stiction.sim.kernel import run_loops
 from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
 from stiction.sim.valve import Friction, pct_to_lbf
 
@@ -248,14 +249,27 @@ def run_batch(
     """Run ``advance`` over all samples; ``w``, ``z``: ``(n_loops, n_samples)``.
 
     Returns ``(op, pv, mv)``, each ``(n_loops, n_samples)``, MV being the stem at each sample.
+    Compiled (``sim.kernel``: the same operations loop by loop); ``advance`` is its reference.
     """
-    n, n_samples = w.shape
-    op_rec, pv_rec, mv_rec = (np.empty((n, n_samples)) for _ in range(3))
     state = LoopState.at_rest(batch) if state is None else state
-    for k in range(n_samples):
-        mv_rec[:, k] = state.mv
-        state, op_rec[:, k], pv_rec[:, k] = advance(batch, state, w[:, k], z[:, k], ts_s)
-    return op_rec, pv_rec, mv_rec
+    n = batch.kc.size
+    f = batch.friction
+
+    def per_loop(v):
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (n,)))
+
+    def own(v, dtype=float):
+        return np.array(v, dtype=dtype, order="C")
+
+    return run_loops(
+        own(batch.kc), own(batch.ti_s), own(batch.sp),
+        per_loop(f.fs_lbf), per_loop(f.stop_lbf), per_loop(f.slip_s), per_loop(f.lbf_per_pct),
+        own(batch.phi), own(batch.gamma_now), own(batch.gamma_prev), own(batch.gamma_w), own(batch.c),
+        own(batch.delay, np.int64), own(batch.deadband_pct), own(batch.actuator_tau_s),
+        own(w), own(z), float(ts_s),
+        own(state.x), own(state.error_sum), own(state.mv), own(state.drive), own(state.played),
+        own(state.flow_hist), int(state.k),
+    )  # fmt: skip
 
 
 def _quantise(x: np.ndarray, quantum: np.ndarray) -> np.ndarray:
