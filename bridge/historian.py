@@ -330,6 +330,13 @@ class _Reader:
                 f"op runs from {op.min():.4g} to {op.max():.4g}, outside 0-100: not percent of span? "
                 "S and J are read in OP's own units"
             )
+        pv = v["pv"]
+        if pv.min() < -5.0 or pv.max() > 105.0:
+            notes.append(
+                f"pv runs from {pv.min():.4g} to {pv.max():.4g}, outside 0-100: engineering units? The verdict "
+                "and an identified process read PV in any units; the canonical level process (--process level) "
+                "assumes percent of span"
+            )
         if "mode" in v and np.ptp(v["mode"]) > 0:
             notes.append("the mode column changes within the file: part of it may be in manual (open loop)")
         if (rows_in_file is not None and n < rows_in_file) or block.first > 0:

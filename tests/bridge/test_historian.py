@@ -92,6 +92,15 @@ def test_op_outside_percent_warns(tmp_path):
     assert any("outside 0-100" in w for w in read_export(_write(tmp_path, text)).warnings)
 
 
+def test_pv_in_engineering_units_warns_and_pv_in_percent_does_not(tmp_path):
+    def warnings(pv_of):
+        text = "t,op,pv\n" + "".join(f"{k},{50 + 3 * np.sin(k):.2f},{pv_of(k):.2f}\n" for k in range(12))
+        return [w for w in read_export(_write(tmp_path, text)).warnings if w.startswith("pv runs")]
+
+    assert warnings(lambda k: 48000 + 500 * np.sin(k / 3)), "a flow of 48,000 kg/h read as percent without a word"
+    assert not warnings(lambda k: 48 + 5 * np.sin(k / 3))
+
+
 def test_fraction_op_and_mode_changes_warn(tmp_path):
     text = "t,op,pv,mode\n" + "".join(f"{k},{0.5 + 0.1 * np.sin(k):.3f},1,{int(k > 5)}\n" for k in range(12))
     warnings = " ".join(read_export(_write(tmp_path, text)).warnings)
