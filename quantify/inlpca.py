@@ -150,19 +150,9 @@ def fit(
     )
 
 
-PROJECT_WINDOWS = 10
-"""Windows projected together: the distances are [windows, samples, curve points], 10 MB for ten
-1000-sample windows (50 at once held 150 MB of temporaries at the agent's peak)."""
-
-
 def _nearest(x: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """Index of the curve point nearest to each sample: x [W, N, 2], curve [W, M, 2] -> [W, N]."""
-    out = np.empty(x.shape[:2], dtype=np.intp)
-    for i in range(0, x.shape[0], PROJECT_WINDOWS):
-        xs, cs = x[i : i + PROJECT_WINDOWS], curve[i : i + PROJECT_WINDOWS]
-        dist = np.sum(cs**2, axis=2)[:, None, :] - 2 * (xs @ cs.transpose(0, 2, 1))  # |x|^2 is the same for every point
-        out[i : i + PROJECT_WINDOWS] = np.argmin(dist, axis=2)
-    return out
+    """Index of the curve point nearest to each sample: x [W, N, 2], curve [W, M, 2] -> [W, N] (compiled)."""
+    return inlpca_kernel.nearest(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(curve, dtype=float))
 
 
 def _fit_chunk(op: np.ndarray, pv: np.ndarray, settings: InlpcaSettings, reference: bool = False) -> InlpcaFit:

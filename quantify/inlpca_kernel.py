@@ -86,3 +86,25 @@ def _adam(p, g, m, v, lr, c1, c2):
         m[i] = 0.9 * m[i] + (1.0 - 0.9) * g[i]
         v[i] = 0.999 * v[i] + (1.0 - 0.999) * g[i] * g[i]
         p[i] -= lr * (m[i] / c1) / (math.sqrt(v[i] / c2) + 1e-8)
+
+
+@njit(cache=True, nogil=True)
+def nearest(x, curve):
+    """Index of the curve point nearest to each sample: x [W, N, 2], curve [W, M, 2] -> [W, N] (int64).
+
+    The squared distance itself, point by point: no [W, N, M] array of distances (numpy's blocked
+    version held 10 MB for ten windows, and cost 1.3 ms a window in the agent's small batches); the
+    first of equally near points, as ``np.argmin``."""
+    n_win, n, m = x.shape[0], x.shape[1], curve.shape[1]
+    out = np.empty((n_win, n), np.int64)
+    for w in range(n_win):
+        for i in range(n):
+            x0, x1 = x[w, i, 0], x[w, i, 1]
+            best, best_d = 0, np.inf
+            for j in range(m):
+                d0, d1 = x0 - curve[w, j, 0], x1 - curve[w, j, 1]
+                d = d0 * d0 + d1 * d1
+                if d < best_d:
+                    best, best_d = j, d
+            out[w, i] = best
+    return out

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stiction.ident.segment import noise_variance, segment_ends
+from stiction.quantify import physical_kernel
 from stiction.sim.process import LOOPS
 from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, VALVE, lbf_to_pct, pct_to_lbf, stop_residual_in
 
@@ -50,13 +51,15 @@ class PhysicalReading:
 
 def reconstruct_mv(pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S) -> np.ndarray:
     """[W, N] stem position from PV of an integrating process (the first samples are settling)."""
-    flow = np.diff(pv, axis=1) / (gain_per_s * ts_s)
+    flow = np.diff(np.atleast_2d(pv).astype(float), axis=1) / (gain_per_s * ts_s)
     c = VALVE.viscous_lbf_s_per_in / VALVE.spring_lbf_per_in / ts_s
-    mv = np.empty_like(pv, dtype=float)
-    mv[:, 0] = flow[:, 0]
-    for k in range(flow.shape[1]):
-        mv[:, k + 1] = (flow[:, k] - c * mv[:, k]) / (1 - c)
-    return mv
+    # mv[k+1] = (flow[k] - c mv[k]) / (1 - c) from mv[0] = flow[0], compiled
+    return physical_kernel.stem_from_flow(np.ascontiguousarray(flow), float(c))
+
+
+def _median(x) -> float:
+    """``np.median`` of a 1-d array, compiled (``quantify.physical_kernel.median``)."""
+    return physical_kernel.median(np.ascontiguousarray(x, dtype=float))
 
 
 def _from_slips(gap_stuck, gap_broke, gap_after) -> tuple[float, float, float, float]:
@@ -67,14 +70,14 @@ def _from_slips(gap_stuck, gap_broke, gap_after) -> tuple[float, float, float, f
     """
     fs_k = 0.5 * (gap_stuck + gap_broke) * PCT_OF_500LBF_PER_PCT_OF_SPAN
     stop_k = gap_after * PCT_OF_500LBF_PER_PCT_OF_SPAN
-    fs, stop = float(np.median(fs_k)), float(np.median(stop_k))
+    fs, stop = float(_median(fs_k)), float(_median(stop_k))
     fd = stop - float(lbf_to_pct(VALVE.spring_lbf_per_in * stop_residual_in(pct_to_lbf(fs - stop))))
     return fs, fd, _robust_se(fs_k), _robust_se(stop_k)
 
 
 def _robust_se(x: np.ndarray) -> float:
     """Standard error of a median from the MAD (normal efficiency factor 1.25)."""
-    mad = 1.4826 * np.median(np.abs(x - np.median(x)))
+    mad = 1.4826 * _median(np.abs(x - _median(x)))
     return 1.25 * mad / np.sqrt(x.size)
 
 
@@ -128,7 +131,7 @@ def read_segmented(
     fs, fd, fs_se, fd_se, slips = (np.full(n_win, np.nan) for _ in range(5))
     for w in range(n_win):
         bounds = [0, *ends[w]]
-        mv = np.array([flow[w, a:b].mean() for a, b in zip(bounds[:-1], bounds[1:], strict=True)])
+        mv = physical_kernel.piece_means(flow[w], np.array(ends[w], dtype=np.int64))  # each piece's mean flow
         starts = np.array(bounds[1:-1])  # interval of each slip: the first of the next piece
         jumps = np.abs(np.diff(mv))
         if jumps.size < 4:

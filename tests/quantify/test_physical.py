@@ -44,3 +44,31 @@ def test_segmented_reading_abstains_or_is_right_under_white_output_noise(coeffic
         trusted = max(seg.fs_se_pct[i], seg.fd_se_pct[i]) <= SEGMENTED_MAX_SE_PCT
         if trusted:  # a reading the pipeline would use must be right
             assert abs(seg.fs_pct[i] - spec.fs_pct) < 1.5 and abs(seg.fd_pct[i] - spec.fd_pct) < 1.5
+
+
+def test_the_compiled_stem_recursion_and_piece_means_follow_numpy():
+    from stiction.quantify import physical_kernel
+
+    rng = np.random.default_rng(5)
+    flow = rng.normal(size=(3, 400)) * 10
+    c = 0.3
+    mv = np.empty((3, 401))
+    mv[:, 0] = flow[:, 0]
+    for k in range(400):  # the recursion as written, vectorised over windows
+        mv[:, k + 1] = (flow[:, k] - c * mv[:, k]) / (1 - c)
+    np.testing.assert_array_equal(physical_kernel.stem_from_flow(flow, c), mv)
+    ends = np.array([1, 7, 8, 150, 151, 399, 400])
+    want = [flow[0, a:b].mean() for a, b in zip([0, *ends[:-1]], ends, strict=True)]
+    np.testing.assert_allclose(physical_kernel.piece_means(flow[0], ends), want, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 7, 40, 501])
+def test_the_compiled_median_is_numpys(n):
+    from stiction.quantify import physical_kernel
+
+    x = np.random.default_rng(n).normal(size=n) * 3
+    want = np.median(x) if n else np.nan
+    assert physical_kernel.median(x) == want or (np.isnan(want) and np.isnan(physical_kernel.median(x)))
+    if n:
+        x[n // 2] = np.nan
+        assert np.isnan(physical_kernel.median(x))
