@@ -250,7 +250,13 @@ def run_throughput(
         by_phase = [np.flatnonzero(phase == p) for p in range(per_message)]
         pending = np.zeros(loops, dtype=int)  # each loop's first live sample not yet sent
         killed_at = None
+        # the second half of a live phase of four report intervals or more: the agents after their cold start
+        half = n_live // 2 if n_live >= 4 * report_every and kill_after_s is None else None
+        half_at, cpu_half, profile_half = None, None, None
         for k in range(n_live):
+            if k == half:
+                half_at, profile_half = time.monotonic(), _profile(health)
+                cpu_half = [_proc_stats(p.pid)[0] for p in procs]
             if kill_after_s is not None and killed_at is None and k / speed >= kill_after_s:
                 killed_stats = _proc_stats(procs[0].pid)
                 procs[0].kill()  # SIGKILL: no goodbye, only its liveliness token vanishes
@@ -273,6 +279,11 @@ def run_throughput(
         profile = {k: v - profile0.get(k, 0.0) for k, v in _profile(health).items()}
         wall = time.monotonic() - started
         stats = [killed_stats if i == 0 and killed_at is not None else _proc_stats(p.pid) for i, p in enumerate(procs)]
+        settled_cpu, settled_profile = None, None
+        if half_at is not None:
+            half_wall = time.monotonic() - half_at
+            settled_cpu = [(st[0] - c) / half_wall for st, c in zip(stats, cpu_half, strict=True)]
+            settled_profile = {k: (v - profile_half.get(k, 0.0)) / half_wall for k, v in _profile(health).items()}
         children = [_children_cpu_s(p.pid) for p in procs]
         for p in procs:
             p.terminate()
@@ -348,6 +359,10 @@ def run_throughput(
         "sizing_worker_cpu_share": [(c1 - c0) / wall for c1, c0 in zip(children, children0, strict=True)],
         "loops_sized": sum(h.get("loops_sized", 0) for h in health.values()),
         "agent_peak_rss_mb": max(s[1] for s in stats),
+        # the same over the live phase's second half (runs of four report intervals or more, no agent killed):
+        # what an agent needs once its cold start (every loop's first reading) is over
+        "agent_cpu_share_second_half": settled_cpu,
+        "agent_cpu_by_stage_second_half": settled_profile,
         # the agents' CPU by stage over the live phase, summed over agents, in cores
         "agent_cpu_by_stage": {k: v / wall for k, v in profile.items()},
         "agents_killed_after_sigterm": stopped_late,

@@ -108,3 +108,10 @@ def print_table(f: dict) -> None:
     print(f"  host: {f['host']['cpu']}, {f['host']['cpus']} cores")
     stages = f["agent_cpu_by_stage"]
     print("  agent CPU by stage (cores): " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
+    if f.get("agent_cpu_share_second_half") is not None:
+        late = f["agent_cpu_by_stage_second_half"]
+        print(
+            f"  over the second half of the live phase: agent CPU "
+            f"{', '.join(f'{c:.0%}' for c in f['agent_cpu_share_second_half'])} of a core; by stage "
+            + ", ".join(f"{k} {v:.2f}" for k, v in late.items())
+        )
