@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from stiction.detect import bicoherence, horch, kernels, oscillation, setpoint, shape
 
@@ -72,7 +71,7 @@ class Evidence:
 
 def _edges(x: np.ndarray) -> np.ndarray:
     """Each row median-filtered over ``EDGE_MEDIAN`` samples: noise removed, a slip's edge kept."""
-    return median_filter(x, size=(1, EDGE_MEDIAN), mode="nearest")
+    return kernels.running_median_rows(np.ascontiguousarray(np.atleast_2d(x), dtype=float), EDGE_MEDIAN)
 
 
 def _jump_share(y: np.ndarray) -> float:

@@ -271,3 +271,26 @@ def squared_bicoherence(spectra, i1, i2):
         den = d12 * d3
         out[p] = (num.real * num.real + num.imag * num.imag) / den if den > 0 else np.nan
     return out
+
+
+@njit(cache=True, nogil=True)
+def running_median_rows(x, width):
+    """Each row of ``x`` [W, N] median-filtered over ``width`` samples (odd), the edges repeating the first
+    and last sample: ``scipy.ndimage.median_filter(x, size=(1, width), mode="nearest")``, which cost 40-50 us
+    a row of 1,000 (its general rank filter) where this walk costs a few."""
+    n_rows, n = x.shape
+    half = width // 2
+    out = np.empty_like(x)
+    buf = np.empty(width)
+    for r in range(n_rows):
+        for i in range(n):
+            for j in range(width):
+                k = min(max(i - half + j, 0), n - 1)
+                v = x[r, k]
+                m = j
+                while m > 0 and buf[m - 1] > v:  # insertion sort of a handful of values
+                    buf[m] = buf[m - 1]
+                    m -= 1
+                buf[m] = v
+            out[r, i] = buf[half]
+    return out

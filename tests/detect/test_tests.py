@@ -218,3 +218,17 @@ def test_the_batched_evidence_equals_each_test_run_on_its_own_signal(seed):
         assert shape.stiction_index(pv[i]) == pytest.approx(ev.shape_pv, rel=1e-9, nan_ok=True)
         b = bicoherence.test(error)
         assert (b.ngi, b.nli) == pytest.approx((ev.bicoherence.ngi, ev.bicoherence.nli), rel=1e-9, nan_ok=True)
+
+
+@pytest.mark.parametrize("n", [1, 3, 4, 1000])
+def test_compiled_edge_filter_is_scipys_median_filter(n):
+    from scipy.ndimage import median_filter
+
+    from stiction.detect import kernels
+    from stiction.detect.features import EDGE_MEDIAN
+
+    rng = np.random.default_rng(n)
+    x = np.round(rng.normal(size=(3, n)) * 4) / 4  # ties, as a quantised signal has them
+    x[1] = np.sign(np.sin(np.arange(n) / 9)) + rng.normal(0, 0.1, n)  # a slip's edge among noise
+    want = median_filter(x, size=(1, EDGE_MEDIAN), mode="nearest")
+    np.testing.assert_array_equal(kernels.running_median_rows(x, EDGE_MEDIAN), want)
