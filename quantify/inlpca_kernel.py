@@ -1,7 +1,8 @@
-"""The INLPCA's training loop, compiled: Adam on the inverse network, one window after another.
+"""The INLPCA's training loop, compiled: Adam on the inverse network, one window after another; and the
+projection of every sample onto the fitted curve (``nearest``).
 
 ``quantify.inlpca`` sets each window up (standardising, the initial angles and weights) and
-projects every sample afterwards in numpy; the loop between, 100 iterations of forward pass,
+evaluates the fitted curve in numpy; the loop between, 100 iterations of forward pass,
 analytic gradients and Adam over 128 samples and 6 hidden units, is some 4,500 small numpy
 calls a batch, so a batch of one window cost 14 ms and of fifty 2.8 ms a window.  Here it runs
 window by window in compiled loops (``cache=True``: compiled once per machine), the same
