@@ -260,15 +260,18 @@ def run_batch(
     def per_loop(v):
         return np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (n,)))
 
-    def own(v, dtype=float):
-        return np.array(v, dtype=dtype, order="C")
+    def read(v, dtype=float):  # read only by the kernel: no copy where the array is already as it needs
+        return np.ascontiguousarray(v, dtype=dtype)
+
+    def own(v):  # the state, which the kernel advances in place: a copy, the caller's stays as it was
+        return np.array(v, dtype=float, order="C")
 
     return run_loops(
-        own(batch.kc), own(batch.ti_s), own(batch.sp),
+        read(batch.kc), read(batch.ti_s), read(batch.sp),
         per_loop(f.fs_lbf), per_loop(f.stop_lbf), per_loop(f.slip_s), per_loop(f.lbf_per_pct),
-        own(batch.phi), own(batch.gamma_now), own(batch.gamma_prev), own(batch.gamma_w), own(batch.c),
-        own(batch.delay, np.int64), own(batch.deadband_pct), own(batch.actuator_tau_s),
-        own(w), own(z), float(ts_s),
+        read(batch.phi), read(batch.gamma_now), read(batch.gamma_prev), read(batch.gamma_w), read(batch.c),
+        read(batch.delay, np.int64), read(batch.deadband_pct), read(batch.actuator_tau_s),
+        read(w), read(z), float(ts_s),
         own(state.x), own(state.error_sum), own(state.mv), own(state.drive), own(state.played),
         own(state.flow_hist), int(state.k),
     )  # fmt: skip

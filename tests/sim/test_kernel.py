@@ -65,7 +65,9 @@ def test_a_record_continues_from_a_given_state():
     w, z = _loads(len(specs), 120, seed=2)
     (_, _, _), state = _reference(batch, w[:, :70], z[:, :70])
     (op_ref, pv_ref, mv_ref), _ = _reference(batch, w[:, 70:], z[:, 70:], state)
+    loads = w.copy(), z.copy()
     op, pv, mv = run_batch(batch, w[:, 70:], z[:, 70:], state=state)
+    assert np.array_equal(w, loads[0]) and np.array_equal(z, loads[1]), "run_batch must not change the loads"
     for got, want in ((op, op_ref), (pv, pv_ref), (mv, mv_ref)):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)
     assert state.k == 70 and np.all(state.error_sum == _reference(batch, w[:, :70], z[:, :70])[1].error_sum), (
