@@ -134,6 +134,15 @@ class _Tail:
         return _Block(start, values)
 
 
+PERCENT_SLACK = 5.0
+"""How far outside 0-100 a signal in percent of span may read (a transmitter's over- and under-range)."""
+
+
+def _outside_percent(x: np.ndarray) -> bool:
+    """Whether ``x`` runs outside 0-100 by more than ``PERCENT_SLACK``: not percent of span."""
+    return bool(x.min() < -PERCENT_SLACK or x.max() > 100.0 + PERCENT_SLACK)
+
+
 class _Reader:
     """One export read block by block, time checked across blocks."""
 
@@ -325,13 +334,13 @@ class _Reader:
         op = v["op"]
         if np.ptp(op) < 1.5 and op.min() >= 0 and op.max() <= 1.0 + 1e-9:
             notes.append("op lies within 0..1: if it is a fraction, not percent, scale it by 100")
-        elif op.min() < -5.0 or op.max() > 105.0:
+        elif _outside_percent(op):
             notes.append(
                 f"op runs from {op.min():.4g} to {op.max():.4g}, outside 0-100: not percent of span? "
                 "S and J are read in OP's own units"
             )
         pv = v["pv"]
-        if pv.min() < -5.0 or pv.max() > 105.0:
+        if _outside_percent(pv):
             notes.append(
                 f"pv runs from {pv.min():.4g} to {pv.max():.4g}, outside 0-100: engineering units? The verdict "
                 "and an identified process read PV in any units; the canonical level process (--process level) "
