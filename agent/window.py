@@ -39,10 +39,14 @@ class RollingWindow:
             for k in range(n):
                 j = (seq + k) % self.size
                 self._op[j], self._pv[j] = op[k], pv[k]
-        else:
-            op, pv = np.asarray(op, float)[-self.size :], np.asarray(pv, float)[-self.size :]
-            idx = self._tail(seq, n, op.size)
-            self._op[idx], self._pv[idx] = op, pv
+        else:  # the last ``size`` samples as one slice of the ring, or two where they wrap past its end
+            m = min(n, self.size)
+            op, pv = op[n - m :], pv[n - m :]
+            j = (seq + n - m) % self.size
+            first = min(m, self.size - j)
+            self._op[j : j + first], self._pv[j : j + first] = op[:first], pv[:first]
+            if first < m:
+                self._op[: m - first], self._pv[: m - first] = op[first:], pv[first:]
         self.count = min(self.size, self.count + n)
         self.next_seq = seq + n
         self.t_end_s = t0_s + (n - 1) * self.ts_s

@@ -11,9 +11,12 @@ def test_window_is_always_the_tail_of_the_stream():
     w = RollingWindow(300, 1.0)
     seq = 0
     while seq < stream.size:
-        n = int(rng.integers(1, 700))
+        n = int(rng.integers(1, 700)) if rng.random() < 0.5 else int(rng.integers(1, 12))  # a message of a few seconds
         part = stream[seq : seq + n]
-        w.update(seq, float(seq), part, -part)
+        if rng.random() < 0.5:  # as numpy arrays, or as the lists a decoded message carries
+            w.update(seq, float(seq), part, -part)
+        else:
+            w.update(seq, float(seq), part.tolist(), (-part).tolist())
         seq += part.size
         op, pv = w.get()
         expected = stream[max(0, seq - 300) : seq].astype(np.float32)  # held as float32
