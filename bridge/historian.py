@@ -66,11 +66,16 @@ def expand_paths(paths: Sequence[Path]) -> list[Path]:
 
 
 def read_export(
-    path: Path | str, ts_s: float | None = None, columns: dict[str, str] | None = None, last: int | None = None
+    path: Path | str,
+    ts_s: float | None = None,
+    columns: dict[str, str] | None = None,
+    last: int | None = None,
+    pv_span: tuple[float, float] | None = None,
 ) -> Export:
     """Read one export, keeping its last ``last`` samples (all when None); ``columns`` maps
-    ``op``/``pv``/``t``/``sp``/``mv``/``mode`` to the file's own names."""
-    reader = _Reader(path, ts_s, columns)
+    ``op``/``pv``/``t``/``sp``/``mv``/``mode`` to the file's own names; ``pv_span``: PV's (and SP's)
+    engineering range (``pv_to_percent``), where the file does not record them in percent of span."""
+    reader = _Reader(path, ts_s, columns, pv_span)
     tail = _Tail(last)
     for block in reader.blocks():
         tail.add(block)
@@ -81,14 +86,19 @@ def read_export(
 
 
 def read_windows(
-    path: Path | str, length: int, every: int, ts_s: float | None = None, columns: dict[str, str] | None = None
+    path: Path | str,
+    length: int,
+    every: int,
+    ts_s: float | None = None,
+    columns: dict[str, str] | None = None,
+    pv_span: tuple[float, float] | None = None,
 ) -> Iterator[Export]:
     """Windows of ``length`` samples, one ending every ``every`` samples from the first full one,
     and a last one ending at the file's end; a file shorter than ``length`` gives one window of
     all its samples."""
     if length < 1 or every < 1:
         raise InputError(f"window of {length} samples every {every}: both must be at least 1")
-    reader = _Reader(path, ts_s, columns)
+    reader = _Reader(path, ts_s, columns, pv_span)
     tail = _Tail(length)
     next_end = length
     for block in reader.blocks():
@@ -138,6 +148,22 @@ PERCENT_SLACK = 5.0
 """How far outside 0-100 a signal in percent of span may read (a transmitter's over- and under-range)."""
 
 
+def check_span(span: tuple[float, float] | None, what: str = "--pv-span") -> tuple[float, float] | None:
+    """``span`` as (low, high) of an engineering range, or an error naming what is wrong with it."""
+    if span is None:
+        return None
+    lo, hi = (float(v) for v in span)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise InputError(f"{what} {lo:g} {hi:g}: expected the range's low and high ends, low below high")
+    return lo, hi
+
+
+def pv_to_percent(x: np.ndarray, span: tuple[float, float]) -> np.ndarray:
+    """Values in engineering units over ``span`` (the transmitter's range: low, high) as percent of it."""
+    lo, hi = span
+    return (np.asarray(x, float) - lo) * (100.0 / (hi - lo))
+
+
 def _outside_percent(x: np.ndarray) -> bool:
     """Whether ``x`` runs outside 0-100 by more than ``PERCENT_SLACK``: not percent of span."""
     return bool(x.min() < -PERCENT_SLACK or x.max() > 100.0 + PERCENT_SLACK)
@@ -146,11 +172,18 @@ def _outside_percent(x: np.ndarray) -> bool:
 class _Reader:
     """One export read block by block, time checked across blocks."""
 
-    def __init__(self, path: Path | str, ts_s: float | None, columns: dict[str, str] | None):
+    def __init__(
+        self,
+        path: Path | str,
+        ts_s: float | None,
+        columns: dict[str, str] | None,
+        pv_span: tuple[float, float] | None = None,
+    ):
         self.path = Path(path)
         self.name = str(path)
         self.ts_flag = ts_s
         self.columns = columns or {}
+        self.pv_span = check_span(pv_span)
         if self.path.is_dir():
             raise InputError(f"{self.name}: a folder with no exports ({', '.join(EXPORT_SUFFIXES)}) in it")
         if not self.path.is_file():
@@ -339,12 +372,22 @@ class _Reader:
                 f"op runs from {op.min():.4g} to {op.max():.4g}, outside 0-100: not percent of span? "
                 "S and J are read in OP's own units"
             )
-        pv = v["pv"]
+        pv, sp = v["pv"], v.get("sp")
+        if self.pv_span is not None:
+            pv = pv_to_percent(pv, self.pv_span)
+            sp = None if sp is None else pv_to_percent(sp, self.pv_span)
+            lo, hi = self.pv_span
+            notes.append(f"pv{' and sp' if sp is not None else ''} read over {lo:g}-{hi:g} (--pv-span) as percent")
         if _outside_percent(pv):
+            span = (
+                "outside the --pv-span given."
+                if self.pv_span is not None
+                else "engineering units? (--pv-span LO HI reads them as percent of that range)."
+            )
             notes.append(
-                f"pv runs from {pv.min():.4g} to {pv.max():.4g}, outside 0-100: engineering units? The verdict "
+                f"pv runs from {pv.min():.4g} to {pv.max():.4g}, outside 0-100: {span} The verdict "
                 "and an identified process read PV in any units; the canonical level process (--process level) "
-                "assumes percent of span"
+                "assumes percent of span, and a process gain is read per percent of PV"
             )
         if "mode" in v and np.ptp(v["mode"]) > 0:
             notes.append("the mode column changes within the file: part of it may be in manual (open loop)")
@@ -354,10 +397,10 @@ class _Reader:
         return Export(
             self.name,
             op,
-            v["pv"],
+            pv,
             float(ts),
             t,
-            v.get("sp"),
+            sp,
             v.get("mv"),
             tuple(notes),
             v.get("mode"),

@@ -129,7 +129,11 @@ class Schedule:
 
 
 def read_tracks(
-    paths: Sequence[Path | str], ts_s: float | None, process: str | None, min_samples: int
+    paths: Sequence[Path | str],
+    ts_s: float | None,
+    process: str | None,
+    min_samples: int,
+    pv_span: tuple[float, float] | None = None,
 ) -> tuple[list[Track], list[tuple[Path, StictionError]]]:
     """One track per readable export of ``paths`` (files or folders), in order; each unreadable one
     with its error (one loop's bad file never stops the others).  ``min_samples``: fewer samples
@@ -138,7 +142,7 @@ def read_tracks(
     tracks, failed = [], []
     for path, loop_id in zip(files, loop_ids(files), strict=True):
         try:
-            export = read_export(path, ts_s)
+            export = read_export(path, ts_s, pv_span=pv_span)
             if export.op.size < min_samples:
                 raise InputError(f"{path}: {export.op.size} samples, need at least {min_samples}")
             tracks.append(track(loop_id, export, process))

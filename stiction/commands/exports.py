@@ -27,6 +27,13 @@ def add_arguments(p: argparse.ArgumentParser, fields: tuple[str, ...], paths: st
             f"--{field}", dest=f"col_{field}", metavar="COLUMN", help=f"the file's name of the {field} column"
         )
     p.add_argument(
+        "--pv-span",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        help="PV's (and SP's) range in the file's engineering units: read as percent of it (default: percent already)",
+    )
+    p.add_argument(
         "--last", type=int, metavar="N", help=f"analyse the last N samples of each file (default {DEFAULT_WINDOW})"
     )
     p.add_argument(
@@ -42,7 +49,7 @@ def windows(
 ) -> Iterator:
     """(path, Export) for every window of every file; a file's error is printed as one line naming
     it, appended to ``failed``, and the next file is read."""
-    from stiction.bridge.historian import expand_paths, read_export, read_windows
+    from stiction.bridge.historian import check_span, expand_paths, read_export, read_windows
 
     columns = {f: getattr(args, f"col_{f}") for f in fields if getattr(args, f"col_{f}")}
     for flag in ("last", "every"):
@@ -51,12 +58,14 @@ def windows(
             need = min_samples if flag == "last" else 1
             raise StictionError(f"--{flag} {value}: need at least {need} samples")
     length = args.last or DEFAULT_WINDOW
+    check_span(args.pv_span)  # once, before any file: a bad range is the command's error, not each file's
     for path in expand_paths(args.paths):
         try:
+            span = tuple(args.pv_span) if args.pv_span else None
             found = (
-                read_windows(path, length, args.every, args.ts, columns)
+                read_windows(path, length, args.every, args.ts, columns, span)
                 if args.every
-                else [read_export(path, args.ts, columns, last=length)]
+                else [read_export(path, args.ts, columns, last=length, pv_span=span)]
             )
             for export in found:
                 if export.op.size < min_samples:

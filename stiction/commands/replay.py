@@ -29,18 +29,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=float, default=1.0, help="messages per second per loop (default 1)")
     p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
     p.add_argument("--process", choices=["level"], help="declare every replayed loop the canonical level loop")
+    p.add_argument(
+        "--pv-span",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        help="PV's (and SP's) range in the files' engineering units: published as percent of it",
+    )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(p)
     zenoh_config.add_publisher_arguments(p)
 
 
-def read_tracks(paths, ts_s, process, command: str = "replay") -> tuple[list, list[str]]:
+def read_tracks(paths, ts_s, process, command: str = "replay", pv_span=None) -> tuple[list, list[str]]:
     """One track per readable export (``bridge.replay.read_tracks``); each unreadable one named on
     one line (and returned)."""
     from stiction.bridge.replay import read_tracks as read
     from stiction.quantify.window import MIN_SAMPLES
 
-    tracks, errors = read(paths, ts_s, process, MIN_SAMPLES)
+    tracks, errors = read(paths, ts_s, process, MIN_SAMPLES, pv_span)
     return tracks, [report_error(command, path, e) for path, e in errors]
 
 
@@ -70,12 +77,14 @@ def publish(schedule, out, stop: threading.Event, rate_hz: float, status_every_s
 
 
 def run(args: argparse.Namespace) -> int:
+    from stiction.bridge.historian import check_span
     from stiction.bridge.publish import stagger_groups
     from stiction.bridge.replay import Schedule
 
     if args.speed <= 0 or args.rate <= 0:
         raise InputError("--speed and --rate must be positive")
-    tracks, failed = read_tracks(args.paths, args.ts, args.process)
+    span = check_span(args.pv_span)  # before any file: a bad range is the command's error
+    tracks, failed = read_tracks(args.paths, args.ts, args.process, pv_span=span)
     if not tracks:
         raise InputError(f"nothing to replay: {len(failed)} file(s), none readable")
     for t in tracks:
