@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stiction.detect.features import NAMES, evidence
+from stiction.detect.features import NAMES, evidence, evidence_rows
 from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
-from stiction.sim.grid import random_loops
+from stiction.sim.grid import healthy_loops, random_loops
 from stiction.sim.loop import simulate
 from stiction.sim.plant_families import FAMILIES, family_loops, simulate_families, stable
 
@@ -57,6 +57,11 @@ simulator's sticky flow cycles of 7-17 samples a period were called external (``
 two-parameter row).  The general model keeps it: there it tells a cycle from none."""
 MEASURED_WEIGHT = 5.0
 """Weight of one measured tag (split over its windows) against one simulated loop."""
+CANONICAL_PER_CLASS = 600
+"""Canonical level loops of each class the canonical model (``Detector.canonical``) is trained on."""
+CANONICAL_SEED_OFFSET = 4
+"""Its loops are drawn from the training seed plus this to 3 more (sticky and healthy, noisy and noise-free):
+not the seeds of ``simulated_set`` (the training seed to 3 more), nor the thesis sets' (``bench.accuracy``)."""
 
 
 @dataclass(frozen=True)
@@ -108,6 +113,20 @@ def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMIL
                         np.array([e.oscillation.oscillating for e in evs]), np.array(bands))  # fmt: skip
 
 
+def canonical_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str]]:
+    """Feature vectors and classes of the canonical level loop: ``n_per_class`` sticky valves
+    (``sim.grid.random_loops``) and as many healthy valves under an external sine load
+    (``sim.grid.healthy_loops``), three quarters under the thesis's disturbances (seeds ``seed``, ``seed + 1``)
+    and a quarter noise-free (``seed + 2``, ``seed + 3``), as the thesis's C1-C10 are."""
+    clean = n_per_class // 4
+    sticky = random_loops(n_per_class - clean, seed) + random_loops(clean, seed + 2, noisy=False)
+    healthy = healthy_loops(n_per_class - clean, seed + 1) + healthy_loops(clean, seed + 3, noisy=False)
+    specs = sticky + healthy
+    run = simulate(specs).kept()
+    x = np.nan_to_num(np.array([e.vector for e in evidence_rows(run.op, run.pv, 1.0, list(run.sp))]))
+    return x, ["stiction"] * n_per_class + ["other"] * n_per_class
+
+
 def _balanced(sticky: np.ndarray) -> np.ndarray:
     """Sample weights that give the two classes equal weight in all."""
     share = float(np.mean(sticky)) if sticky.size else 0.5
@@ -123,11 +142,13 @@ def train(
     measured_tags: list[str] | None = None,
     trained_on: str = "",
     measured_oscillating: np.ndarray | None = None,
+    canonical: tuple[np.ndarray, list[str]] | None = None,
 ) -> Detector:
     """The stiction model on the thesis-scale windows and the measured ones; the cycle model on every
     window that oscillates regularly (both band scales, the measured ones that do), the classes
     weighed equally; the cause model on the thesis-scale look-alikes; the stuck-valve rules on the
-    simulated windows only.  Measured windows weigh ``MEASURED_WEIGHT`` a tag."""
+    simulated windows only.  Measured windows weigh ``MEASURED_WEIGHT`` a tag.  ``canonical``: the
+    canonical level loop's windows (``canonical_set``), for the canonical model, the classes weighed equally."""
     sticky = np.array([c == "stiction" for c in sim.classes])
     general = sim.bands == "thesis"
     m_x = np.zeros((0, sim.x.shape[1])) if measured_x is None or not len(measured_x) else np.nan_to_num(measured_x)
@@ -154,4 +175,8 @@ def train(
     general_classes = [c for c, g in zip(sim.classes, general, strict=True) if g]
     ramp = fit_stuck_rule(sim.stuck[general, 0], general_classes)
     step = fit_stuck_rule(sim.stuck[general, 1], general_classes, STEP_AT)
-    return Detector(stiction, cause, trained_on, ramp, step, cycle)
+    known = None
+    if canonical is not None:
+        flags = np.array([c == "stiction" for c in canonical[1]])
+        known = fit_logistic(canonical[0], labels(flags), ("other", "stiction"), _balanced(flags))
+    return Detector(stiction, cause, trained_on, ramp, step, cycle, known)

@@ -161,17 +161,33 @@ class Detector:
     equally.  Among regular cycles the question is the cycle's shape and phase, not whether there is
     one; the model for every window, trained mostly on windows that do not cycle, called a quarter of
     the held-out level family's sticky limit cycles at plant-scale bands (``stiction bench detect``)."""
+    canonical: Logistic | None = None
+    """Classes ("other", "stiction") for the canonical level loop (declared, ``--process level``, or recognised
+    by its controller's tuning, ``quantify.policy.canonical_level``):
+    trained on that loop alone, sticky valves under the thesis's disturbances against healthy valves under
+    an external sine load (``sim.grid.healthy_loops``), the two classes weighed equally.  Where the process
+    is known, the question is that loop's: a sticky level loop under heavy noise cycles irregularly, and
+    the plant-trained models, which read an irregular cycle as no cycle, called 86-91 % of the thesis's
+    noisy sets (``detect.training.canonical_set``)."""
 
     def stiction_probability(
-        self, x: np.ndarray, stuck: np.ndarray | None = None, oscillating: np.ndarray | None = None
+        self,
+        x: np.ndarray,
+        stuck: np.ndarray | None = None,
+        oscillating: np.ndarray | None = None,
+        canonical: np.ndarray | None = None,
     ) -> np.ndarray:
         """The logistic model's probability (the cycle model's where ``oscillating`` [n] says the window
-        oscillates regularly), raised to a stuck-valve test's where that test speaks.
+        oscillates regularly, the canonical model's where ``canonical`` [n] says the loop is the canonical
+        level loop), raised to a stuck-valve test's where that test speaks.
         ``stuck`` [n, 2]: each window's ``Evidence.stuck`` (stuck-ramp share, stuck step's travel share)."""
         p = self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
         if oscillating is not None and self.cycle is not None and np.any(oscillating):
             p_cycle = self.cycle.probabilities(x)[:, self.cycle.classes.index("stiction")]
             p = np.where(np.asarray(oscillating, bool), p_cycle, p)
+        if canonical is not None and self.canonical is not None and np.any(canonical):
+            p_canonical = self.canonical.probabilities(x)[:, self.canonical.classes.index("stiction")]
+            p = np.where(np.asarray(canonical, bool), p_canonical, p)
         if stuck is None:
             return p
         stuck = np.asarray(stuck, float).reshape(-1, 2)
@@ -193,6 +209,8 @@ class Detector:
             body["stuck_step"] = self.step.to_dict()
         if self.cycle is not None:
             body["cycle"] = self.cycle.to_dict()
+        if self.canonical is not None:
+            body["canonical"] = self.canonical.to_dict()
         Path(path).write_text(json.dumps(body, indent=1) + "\n")
 
     @classmethod
@@ -207,7 +225,8 @@ class Detector:
         ramp, step = (StuckRule(float(r["at"]), float(r["probability"])) if r else None for r in rules)
         stiction, cause = Logistic.from_dict(body["stiction"]), Logistic.from_dict(body["cause"])
         cycle = Logistic.from_dict(body["cycle"]) if "cycle" in body else None
-        return cls(stiction, cause, body["trained_on"], ramp, step, cycle)
+        canonical = Logistic.from_dict(body["canonical"]) if "canonical" in body else None
+        return cls(stiction, cause, body["trained_on"], ramp, step, cycle, canonical)
 
 
 @dataclass(frozen=True)
@@ -236,12 +255,14 @@ def _stuck_valve(detector: Detector, ev: Evidence) -> str | None:
     return "stuck valve: " + "; ".join(said) + " (the controller winding up on a valve that does not move)"
 
 
-def decide(detector: Detector, ev: Evidence, blocking_problems: list[str]) -> Verdict:
-    """The verdict for one window: data problems first, then the stiction probability, then whether it oscillates."""
+def decide(detector: Detector, ev: Evidence, blocking_problems: list[str], canonical: bool = False) -> Verdict:
+    """The verdict for one window: data problems first, then the stiction probability, then whether it
+    oscillates (``canonical``: the loop is the canonical level loop, declared or recognised)."""
     if blocking_problems:
         return Verdict("bad_data", None, None, "; ".join(blocking_problems))
     x = ev.vector[None, :]
-    p = float(detector.stiction_probability(x, ev.stuck[None, :], np.array([ev.oscillation.oscillating]))[0])
+    osc, known = np.array([ev.oscillation.oscillating]), np.array([canonical])
+    p = float(detector.stiction_probability(x, ev.stuck[None, :], osc, known)[0])
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)
         reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "")

@@ -124,8 +124,8 @@ class Quantifier:
         problems_all = data_checks_rows(op, pv)
         evs = features.evidence_rows(op, pv, ts_s, sps)
         verdicts = [
-            decide(self.detector, ev, [c.message for c in blocking(problems)])
-            for ev, problems in zip(evs, problems_all, strict=True)
+            decide(self.detector, ev, [c.message for c in blocking(problems)], bool(known))
+            for ev, problems, known in zip(evs, problems_all, level, strict=True)
         ]
         clock = self._lap("verdict", clock)
         sticky = np.array([v.verdict == "stiction" for v in verdicts])
@@ -150,7 +150,7 @@ class Quantifier:
         results: list[Result] = []
         for i, w in enumerate(windows):
             problems, ev = problems_all[i], evs[i]
-            verdict = policy.overridden(verdicts[i], bool(physical_ok[i]))
+            verdict = verdicts[i]
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
             partial = w.full_samples is not None and len(w.op) < w.full_samples
             if partial:

@@ -42,14 +42,6 @@ def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: i
     )
 
 
-def overridden(verdict: Verdict, physical_speaks: bool) -> Verdict:
-    """A declared level loop whose slips read fs and fd is sticky: the valve's own evidence outweighs
-    the cycle's shape."""
-    if physical_speaks and verdict.verdict in ("other_cause", "no_oscillation"):
-        return Verdict("stiction", verdict.stiction_probability, "stiction", "the slips read fs and fd")
-    return verdict
-
-
 def impossible(fs_pct, fd_pct, fs_se_pct, fd_se_pct, op_range_pct: float) -> str | None:
     """Why no valve the models know has this friction, or None: fs beyond 500 lbf, fd above fs
     or below zero, a band wider than OP moved (each beyond two standard errors)."""

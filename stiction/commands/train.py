@@ -87,6 +87,7 @@ def train_detector(args: argparse.Namespace) -> int:
     models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
     n_per_cause = training.N_PER_CAUSE
     sim = training.simulated_set(n_per_cause, args.seed + training.SIM_SEED)
+    canonical_seed = args.seed + training.SIM_SEED + training.CANONICAL_SEED_OFFSET
     mx, sticky, tags, oscillating = [], [], [], []
     if args.measured is not None:
         if not args.measured.exists():
@@ -104,10 +105,15 @@ def train_detector(args: argparse.Namespace) -> int:
         f"{args.seed + training.SIM_SEED}) and {round(training.PLANT_SHARE * n_per_cause)} at plant-scale bands (seed "
         f"{args.seed + training.SIM_SEED + training.PLANT_SEED_OFFSET}, the cycle model only), sticky where "
         "the valve's stem slipped in the window, and "
-        f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free)"
+        f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free); the canonical model "
+        f"on {training.CANONICAL_PER_CLASS} sticky canonical loops and as many healthy ones under an external sine "
+        f"load (seeds {canonical_seed}-{canonical_seed + 3}, a quarter noise-free)"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
-    detector = training.train(sim, np.array(mx) if mx else None, sticky, tags, trained_on, np.array(oscillating, bool))
+    canonical = training.canonical_set(training.CANONICAL_PER_CLASS, canonical_seed)
+    detector = training.train(
+        sim, np.array(mx) if mx else None, sticky, tags, trained_on, np.array(oscillating, bool), canonical
+    )
     models_dir.mkdir(parents=True, exist_ok=True)
     detector.save(models_dir / DETECTOR_FILE)
     print(f"detector written to {models_dir / DETECTOR_FILE}: {trained_on}")
