@@ -181,13 +181,19 @@ class Detector:
         oscillates regularly, the canonical model's where ``canonical`` [n] says the loop is the canonical
         level loop), raised to a stuck-valve test's where that test speaks.
         ``stuck`` [n, 2]: each window's ``Evidence.stuck`` (stuck-ramp share, stuck step's travel share)."""
-        p = self.stiction.probabilities(x)[:, self.stiction.classes.index("stiction")]
-        if oscillating is not None and self.cycle is not None and np.any(oscillating):
-            p_cycle = self.cycle.probabilities(x)[:, self.cycle.classes.index("stiction")]
-            p = np.where(np.asarray(oscillating, bool), p_cycle, p)
-        if canonical is not None and self.canonical is not None and np.any(canonical):
-            p_canonical = self.canonical.probabilities(x)[:, self.canonical.classes.index("stiction")]
-            p = np.where(np.asarray(canonical, bool), p_canonical, p)
+        x = np.atleast_2d(x)
+        which = np.zeros(x.shape[0], int)  # each row's model: 0 the general, 1 the cycle's, 2 the canonical
+        if oscillating is not None and self.cycle is not None:
+            which[np.asarray(oscillating, bool)] = 1
+        if canonical is not None and self.canonical is not None:
+            which[np.asarray(canonical, bool)] = 2
+        p = np.empty(x.shape[0])
+        for k, model in enumerate((self.stiction, self.cycle, self.canonical)):
+            rows = which == k
+            if rows.all():  # one model for every row (a single window always): no copy
+                p = model.probabilities(x)[:, model.classes.index("stiction")]
+            elif rows.any():  # only the model a row reads is evaluated on it
+                p[rows] = model.probabilities(x[rows])[:, model.classes.index("stiction")]
         if stuck is None:
             return p
         stuck = np.asarray(stuck, float).reshape(-1, 2)
