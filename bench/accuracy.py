@@ -176,8 +176,8 @@ def print_table(figures: dict) -> None:
     print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
     h = figures["healthy_called_sticky"]
     print(
-        f"false alarms: {h['n']} canonical loops with a healthy valve cycling under an external sine load called sticky "
-        f"{100 * h['declared']:.1f} % declared, {100 * h['undeclared']:.1f} % without flags"
+        f"false alarms: {h['n']} canonical loops with a healthy valve cycling under an external sine load called "
+        f"sticky {100 * h['declared']:.1f} % declared, {100 * h['undeclared']:.1f} % without flags"
     )
     found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
     cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)

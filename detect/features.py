@@ -127,20 +127,26 @@ def evidence_rows(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sps=None) -
     # one at a time: batched, the spectra outgrow the cache (3x slower)
     bic = [bicoherence.test(e, d) for e, d in zip(errors, d_error, strict=True)]
     edges_op, edges_pv = _edges(op), _edges(pv)
+    # the error's ACF and Horch's products of OP and the error, every row in one transform each (each row's
+    # numbers as if alone); Horch's error is sp - pv, the negative of ``error`` (pv - sp): detrending is linear
+    y_op, y_error = np.stack([d.y for d in d_op]), np.stack([d.y for d in d_error])
+    acf = oscillation.autocorrelation(y_error, oscillation.max_lag(op.shape[1]))  # a flat row's: nan, unread
+    products = horch.circular_products(y_op, -y_error)
     return [
         _evidence(
-            op[i], pv[i], errors[i], sps[i], ts_s, bic[i], edges_op[i], edges_pv[i], (d_op[i], d_pv[i], d_error[i])
-        )
+            op[i], pv[i], errors[i], sps[i], ts_s, bic[i], edges_op[i], edges_pv[i], (d_op[i], d_pv[i], d_error[i]),
+            (acf[i], products[i]),
+        )  # fmt: skip
         for i in range(op.shape[0])
     ]
 
 
-def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended) -> Evidence:
+def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended, transforms) -> Evidence:
     d_op, d_pv, d_error = detrended
-    osc = oscillation.detect(error, ts_s, d_error)
+    acf, products = transforms
+    osc = oscillation.detect(error, ts_s, d_error, acf)
     period = osc.period_s / ts_s if osc.period_s else None
-    # Horch's error is sp - pv, the negative of ``error`` (pv - sp): detrending is linear
-    h = horch.test(op, pv, sp, period, d_op, oscillation.Detrended(-d_error.y, d_error.sd))
+    h = horch.test(op, pv, sp, period, d_op, oscillation.Detrended(-d_error.y, d_error.sd), products)
     si_op, si_pv = shape.stiction_index(op, d_op), shape.stiction_index(pv, d_pv)
     vector = np.array(
         [

@@ -31,13 +31,20 @@ class Horch:
     """``stiction``, ``no_stiction`` or ``undecided``."""
 
 
-def _lagged_products(u: np.ndarray, e: np.ndarray, max_lag: int) -> np.ndarray:
-    """``sum_t u(t) e(t + lag)`` for lags ``-max_lag..max_lag``, by FFT: the cross-correlation of the two
-    detrended signals less its normalisation, which moves no sign change."""
-    n = u.size
+def circular_products(u: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``sum_t u(t) e(t + lag)`` for every lag, by FFT over twice the window (no wrap-around), of each row
+    of ``u``, ``e`` [W, N] (or of one signal each): a batch's in one transform, each row as if alone."""
+    n = np.shape(u)[-1]
     size = 1 << int(np.ceil(np.log2(2 * n)))
-    c = np.fft.irfft(np.conj(np.fft.rfft(u, size)) * np.fft.rfft(e, size), size)
-    return np.concatenate([c[size - max_lag :], c[: max_lag + 1]])
+    return np.fft.irfft(np.conj(np.fft.rfft(u, size, axis=-1)) * np.fft.rfft(e, size, axis=-1), size, axis=-1)
+
+
+def _lagged_products(u: np.ndarray, e: np.ndarray, max_lag: int, c: np.ndarray | None = None) -> np.ndarray:
+    """``sum_t u(t) e(t + lag)`` for lags ``-max_lag..max_lag`` (``c``: ``circular_products`` of the two,
+    where the caller has it): the cross-correlation of the two detrended signals less its normalisation,
+    which moves no sign change."""
+    c = circular_products(u, e) if c is None else c
+    return np.concatenate([c[c.size - max_lag :], c[: max_lag + 1]])
 
 
 def _crossing(lags: np.ndarray, c: np.ndarray) -> float:
@@ -58,9 +65,11 @@ def test(
     period_samples: float | None = None,
     op_d: Detrended | None = None,
     e_d: Detrended | None = None,
+    products: np.ndarray | None = None,
 ) -> Horch:
     """Horch's test on one window; the error is ``sp - pv`` (``-pv`` detrended without a setpoint).
-    ``op_d``, ``e_d``: OP's and the error's ``detrended``, where the caller has them."""
+    ``op_d``, ``e_d``: OP's and the error's ``detrended``, ``products``: their ``circular_products``, where
+    the caller has them."""
     if op_d is None:
         op_d = detrended(np.asarray(op, float))
     if e_d is None:
@@ -72,7 +81,7 @@ def test(
     # the test reads where the CCF changes sign, not its scale: the detrended signals (mean zero) go in
     # as they are, unnormalised (a mean, a subtraction and a standard deviation each, 70 us a window)
     lag = max(max_lag, 2)
-    lags, c = np.arange(-lag, lag + 1), _lagged_products(op, e, lag)
+    lags, c = np.arange(-lag, lag + 1), _lagged_products(op, e, lag, products)
     mid = max_lag
     if c[mid] == 0:
         return Horch(1.0, "stiction")

@@ -147,16 +147,24 @@ def half_cycles(y: np.ndarray, sd: float) -> tuple[np.ndarray, np.ndarray]:
     return smooth, _crossings(smooth, HYSTERESIS_STD * sd)
 
 
-def detect(x: np.ndarray, ts_s: float = 1.0, d: Detrended | None = None) -> Oscillation:
+def max_lag(n: int) -> int:
+    """The longest lag of the ACF ``detect`` reads in a window of ``n`` samples."""
+    return int(MAX_LAG_SHARE * n)
+
+
+def detect(
+    x: np.ndarray, ts_s: float = 1.0, d: Detrended | None = None, acf: np.ndarray | None = None
+) -> Oscillation:
     """Whether one signal (PV or the control error, % of span) oscillates, its period and regularity
-    (``d``: the signal's ``detrended``, where the caller has it)."""
+    (``d``: the signal's ``detrended``, ``acf``: its ``autocorrelation`` up to ``max_lag``, where the
+    caller has them: a batch's ACFs in one transform)."""
     x = np.asarray(x, dtype=float)
     n = x.size
     d = d if d is not None else detrended(x)
     y, sd = d.y, d.sd
     if not sd > 0:
         return Oscillation(False, None, 0.0, 0.0, 0.0)
-    r_acf = autocorrelation(y, int(MAX_LAG_SHARE * n))[0]  # sd > 0, so c_0 > 0
+    r_acf = acf if acf is not None else autocorrelation(y, max_lag(n))[0]  # sd > 0, so c_0 > 0
     zc = _crossings(r_acf, 2.0 / np.sqrt(n))  # the ACF's own estimation noise is about 1/sqrt(n)
     r1, p1 = _regularity(zc)
     if np.isfinite(p1) and _peak_near(r_acf, p1) < ACF_PEAK:

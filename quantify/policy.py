@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from stiction.detect.verdict import Verdict
 from stiction.ident import controller
 from stiction.ident.checks import impossible_friction
 from stiction.sim.loop import TS_S

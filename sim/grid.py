@@ -92,16 +92,16 @@ HEALTHY_LOAD_AMPLITUDE_PCT = (0.2, 4.0)
 def healthy_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
     """The canonical loop with a healthy valve (fs = fd = 0) that still cycles: an external sine load at the
     process input (period and amplitude log-uniform over ``HEALTHY_LOAD_PERIOD_S``, ``HEALTHY_LOAD_AMPLITUDE_PCT``)
-    under the thesis's disturbances (``random_disturbance``; none where not ``noisy``).  Without the load a healthy canonical loop is
-    still: the thesis's disturbances are sized on the clean signal's RMS, which is then zero."""
+    under the thesis's disturbances (``random_disturbance``; none where not ``noisy``).  Without the load a
+    healthy canonical loop is still: the thesis's disturbances are sized on the clean signal's RMS, then zero."""
     rng = np.random.default_rng(seed)
     specs = []
     for _ in range(n):
         period = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD_PERIOD_S))))
         amplitude = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD_AMPLITUDE_PCT))))
         ext = Extensions(osc_period_s=period, osc_amplitude_pct=amplitude)
-        specs.append(LoopSpec(0.0, 0.0, disturbance=random_disturbance(rng) if noisy else None, extensions=ext,
-                              seed=int(rng.integers(2**31))))  # fmt: skip
+        disturbance = random_disturbance(rng) if noisy else None
+        specs.append(LoopSpec(0.0, 0.0, disturbance=disturbance, extensions=ext, seed=int(rng.integers(2**31))))
     return specs
 
 

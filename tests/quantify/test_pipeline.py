@@ -37,7 +37,8 @@ def test_noise_free_cases_are_read_physically_and_exactly(quantifier, cases):
     0.73-0.96 in four other realisations), and the canonical model reads it as an external load."""
     specs, r = cases
     reports = quantifier.quantify(_windows(specs, r)[:10])
-    called = [(rep, spec) for rep, spec in zip(reports, list(specs.values())[:10], strict=True) if rep.verdict == "stiction"]
+    pairs = zip(reports, list(specs.values())[:10], strict=True)
+    called = [(rep, spec) for rep, spec in pairs if rep.verdict == "stiction"]
     assert len(called) >= 9
     errors = []
     for rep, spec in called:
