@@ -53,6 +53,12 @@ from stiction.ident.record import Record
 from stiction.ident.valve_model import Hypothesis
 
 
+SCREEN_BLIND = ("dead_time",)
+"""Causes fitted in full whatever their screening says: a dead time's first-pass fit reads the slips where the
+record shows them, a sample or two off the delayed stem's, and its full fit moves them (``ident.fit``); on
+the wide draws the screen put a dead time of 1.0 s 51-78 behind none, the full fit at it 83 ahead."""
+
+
 def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple[dict[str, Candidate], Model]:
     """Try every remaining cause on ``current``; the best one is accepted if it earns its parameters."""
     record = fitter.record
@@ -62,6 +68,7 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     # in full: the best screened few, and every cause whose first-pass fit beats the current model's
     ((_, current_read),) = fitter.fast([current.hypothesis])
     chosen = ranked[:CAUSES_FITTED_IN_FULL] + [c for c in ranked if screened[c].criteria.min() < current_read]
+    chosen += [c for c in SCREEN_BLIND if c in screened]
     models = {c: fit_in_full(fitter, screened[c], current) for c in list(dict.fromkeys(chosen))[:MAX_FULL_CAUSES]}
     # the current model at its best: a cause must not get the credit for a better valve fit its search found
     reference = min([current.criterion, *(baseline(fitter, current, m).criterion for m in models.values())])

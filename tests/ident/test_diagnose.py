@@ -110,3 +110,19 @@ def test_a_quantum_below_the_noise_is_named_from_the_lattice_with_its_step():
     assert "quantization" in d.causes and d.candidates["quantization"].accepted
     assert cause_parameters(d.extended)["quantum_pct"] == pytest.approx(0.03, rel=0.02)
     assert d.friction.fs_pct == pytest.approx(45.0, abs=3.0) and d.friction.fd_pct == pytest.approx(10.0, abs=3.0)
+
+
+def test_a_dead_time_of_one_sample_the_first_pass_misses_is_still_found():
+    """Hidden effect: a dead time of one sample, where the screen's first-pass fits (the slips where the record
+    shows them) put every dead time behind none and only the full fit, which moves the slips to the delayed
+    stem's, reads it (the wide draws of ``stiction bench diagnose``, seed 4242)."""
+    from stiction.sim.grid import EFFECT_RANGES, effect_loops
+
+    spec = effect_loops("dead_time", 1, 4242 + list(EFFECT_RANGES).index("dead_time"), draws="wide")[0]
+    r = simulate([spec]).kept()
+    record = Record(r.op[0], r.pv[0], 1.0)
+    d = diagnose(record)
+    assert d.causes and d.causes[0] == "dead_time", d.causes
+    assert cause_parameters(d.extended)["dead_time_s"] == pytest.approx(spec.extensions.dead_time_s, rel=0.25)
+    assert d.friction.fs_pct == pytest.approx(spec.fs_pct, abs=3.0)
+    assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
