@@ -52,7 +52,6 @@ from stiction.ident.models import (
 from stiction.ident.record import Record
 from stiction.ident.valve_model import Hypothesis
 
-
 SCREEN_BLIND = ("dead_time",)
 """Causes fitted in full whatever their screening says: a dead time's first-pass fit reads the slips where the
 record shows them, a sample or two off the delayed stem's, and its full fit moves them (``ident.fit``); on
