@@ -326,6 +326,16 @@ class AgentCore:
             out[i] = (window, arrived)
         return out
 
+    def window_of(self, loop_id: str) -> Window | None:
+        """The owned loop's window as it stands (for the background sizing), or None."""
+        state = self.loops.get(loop_id)
+        if state is None or not self.owns(loop_id) or not state.window.count:
+            return None
+        w = state.window
+        op, pv = w.get()
+        full = self.settings.window_samples
+        return Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process, sp=w.get_sp(), full_samples=full)
+
     def seen_report(self, key: str, payload: bytes) -> None:
         """A report on the key space (from any agent): the loop's windows up to its end are reported.
         Only the end time is read; anything unreadable is ignored (it cannot stop a report)."""

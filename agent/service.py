@@ -103,7 +103,7 @@ class AgentService:
         self.sizing = SizingPlan(settings.size_every_s) if settings.size_every_s > 0 else None
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
-        self._size_queue: dict = {}  # loop_id -> its newest window waiting for the worker
+        self._size_queue: dict[str, None] = {}  # loops waiting for the worker, in the order they last asked
         self._shard_subs: dict[str, object] = {}  # key expression -> subscriber (a channel)
         self._spec_samples = None  # the subscriber (a channel) to the spec's sample key
         self._owned: set[int] = set()
@@ -335,15 +335,20 @@ class AgentService:
 
     # background sizing ---------------------------------------------------------------------------
     def _size_or_queue(self, w, partial: bool) -> None:
-        """Size the window now if the worker is free, else keep it (the loop's latest) until it is:
-        a loop whose stream ends while another is being sized is still sized."""
-        sp = None if w.sp is None else np.array(w.sp)
-        job = (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, partial, sp)
+        """Size the window now if the worker is free, else queue the loop until it is, when its window is
+        taken afresh from the rolling buffer (the newest; a loop whose stream ends while another is being
+        sized is still sized).  The queue holds loop ids, not windows: a plant of thousands of sticky loops
+        of unknown process waits in it, 12 kB a window copied."""
         if self.sizing.has_room():
-            self._size(*job)
+            self._size(*self._job(w, partial))
         else:
-            self._size_queue.pop(w.loop_id, None)  # its newest window, in the order loops asked
-            self._size_queue[w.loop_id] = job
+            self._size_queue.pop(w.loop_id, None)  # in the order loops last asked
+            self._size_queue[w.loop_id] = None
+
+    @staticmethod
+    def _job(w, partial: bool) -> tuple:
+        sp = None if w.sp is None else np.array(w.sp)
+        return (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, partial, sp)
 
     def _size(self, loop_id, op, pv, ts_s, t_end_s, partial, sp=None) -> None:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
@@ -370,7 +375,11 @@ class AgentService:
                 continue
             self.latest[loop_id] = self.sizing.apply(draft, self.settings.agent_id).model_dump_json().encode()
         while self._size_queue and self.sizing.has_room():
-            self._size(*self._size_queue.pop(next(iter(self._size_queue))))
+            loop_id = next(iter(self._size_queue))
+            del self._size_queue[loop_id]
+            w = self.core.window_of(loop_id)
+            if w is not None:  # else handed to another agent, or its window restarted empty
+                self._size(*self._job(w, w.full_samples is not None and len(w.op) < w.full_samples))
 
     def health(self, advance_rates: bool = False) -> AgentHealth:
         """The counters; rates are over the time since the last published health message."""

@@ -387,3 +387,20 @@ def test_a_sharded_loop_is_held_by_its_owner_only_and_dropped_when_its_shard_mov
     wrong = keys.samples("stiction/demo", "L1") + f"/{(keys.shard_of('L1') + 1) % keys.SHARDS}"
     a.ingest(wrong, _payload(10), JSON, 1.0)
     assert a.rejected["wrong_shard"] == 1
+
+
+def test_the_window_for_a_background_sizing_is_the_loops_newest_and_only_an_owned_ones():
+    """The sizing queue keeps loop ids; the window it sizes is taken when the worker is free: the newest."""
+    core = _core()
+    core.set_agents({"a1"})
+    assert core.window_of("L1") is None  # never seen
+    core.ingest(KEY, _payload(0, n=60), JSON, 0.0)
+    core.ingest(KEY, _payload(60, n=60), JSON, 1.0)
+    w = core.window_of("L1")
+    assert w.loop_id == "L1" and len(w.op) == 100 and w.t_end_s == 119.0 and w.full_samples == 100
+    np.testing.assert_array_equal(w.op, np.arange(20, 120, dtype=np.float32))
+    for other in (f"b{i}" for i in range(50)):  # an agent that takes L1's shard over
+        core.set_agents({"a1", other})
+        if not core.owns("L1"):
+            break
+    assert not core.owns("L1") and core.window_of("L1") is None  # handed over: its new owner sizes it
