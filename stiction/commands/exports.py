@@ -26,13 +26,7 @@ def add_arguments(p: argparse.ArgumentParser, fields: tuple[str, ...], paths: st
         p.add_argument(
             f"--{field}", dest=f"col_{field}", metavar="COLUMN", help=f"the file's name of the {field} column"
         )
-    p.add_argument(
-        "--pv-span",
-        nargs=2,
-        type=float,
-        metavar=("LO", "HI"),
-        help="PV's (and SP's) range in the file's engineering units: read as percent of it (default: percent already)",
-    )
+    add_pv_span(p)
     p.add_argument(
         "--last", type=int, metavar="N", help=f"analyse the last N samples of each file (default {DEFAULT_WINDOW})"
     )
@@ -41,6 +35,17 @@ def add_arguments(p: argparse.ArgumentParser, fields: tuple[str, ...], paths: st
         type=int,
         metavar="N",
         help="one report per window of --last samples, a new window every N samples (default: the last window only)",
+    )
+
+
+def add_pv_span(p: argparse.ArgumentParser) -> None:
+    """``--pv-span LO HI``: PV and SP recorded in engineering units, read as percent of that range."""
+    p.add_argument(
+        "--pv-span",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        help="PV's (and SP's) range in the files' engineering units: read as percent of it (default: percent already)",
     )
 
 

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from stiction import zenoh_config
-from stiction.commands.exports import report_error
+from stiction.commands.exports import add_pv_span, report_error
 from stiction.commands.sim import DEFAULT_ENDPOINT, stop_on_signals
 from stiction.schemas import keys
 from stiction.schemas.errors import InputError
@@ -29,13 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=float, default=1.0, help="messages per second per loop (default 1)")
     p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
     p.add_argument("--process", choices=["level"], help="declare every replayed loop the canonical level loop")
-    p.add_argument(
-        "--pv-span",
-        nargs=2,
-        type=float,
-        metavar=("LO", "HI"),
-        help="PV's (and SP's) range in the files' engineering units: published as percent of it",
-    )
+    add_pv_span(p)
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(p)
     zenoh_config.add_publisher_arguments(p)
