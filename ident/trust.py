@@ -80,6 +80,7 @@ def band_doubts(s_pct: float, s_se_pct: float, process) -> list[str]:
         out.append(
             f"the fit's process gain is {process.gain:.3g} % of span per % of travel: the valve's whole stroke "
             f"would move PV {process.gain:.3g} spans; a fit that explains PV by stem moves this small reads "
-            "its band under a doubtful process: read S and J with care"
+            "its band under a doubtful process: read S and J with care (PV recorded in engineering units reads "
+            "as such a gain: give its range with --pv-span LO HI)"
         )
     return out
