@@ -280,7 +280,7 @@ class AgentCore:
         their verdict with the reading put off.  So a cold start of thousands of sticky loops, or a
         take-over, spreads its readings over the next reports instead of making every report late."""
         out, wanting = [], []
-        full, every = self.settings.window_samples, self.settings.estimate_every
+        every = self.settings.estimate_every
         queue, self._queue = self._queue, []  # loops that became due as they were ingested, in that order
         for loop_id in queue:
             state = self.loops[loop_id]
@@ -293,19 +293,7 @@ class AgentCore:
             state.new_since_report = 0
             if not self.owns(loop_id) or (w.t_end_s is not None and w.t_end_s <= state.reported_to_s):
                 continue  # another agent's, or reported already by the owner that has just died
-            op, pv = w.get()
-            window = Window(
-                loop_id,
-                op,
-                pv,
-                w.ts_s,
-                w.t_end_s,
-                state.process,
-                sp=w.get_sp(),
-                full_samples=full,
-                interpolated=state.interpolated(),
-                carry=state.reading,
-            )
+            window = self._window(loop_id, state, interpolated=state.interpolated(), carry=state.reading)
             # a loop last called not sticky has no reading to carry and is read at once should it turn
             # sticky, outside the ration; the others want a reading when theirs is missing or stale
             if state.reading is not None and state.reading_reports >= every:
@@ -326,15 +314,18 @@ class AgentCore:
             out[i] = (window, arrived)
         return out
 
+    def _window(self, loop_id: str, state: _Loop, **extra) -> Window:
+        """The loop's samples held, as the pipeline's ``Window``."""
+        w, full = state.window, self.settings.window_samples
+        op, pv = w.get()
+        return Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process, sp=w.get_sp(), full_samples=full, **extra)
+
     def window_of(self, loop_id: str) -> Window | None:
         """The owned loop's window as it stands (for the background sizing), or None."""
         state = self.loops.get(loop_id)
         if state is None or not self.owns(loop_id) or not state.window.count:
             return None
-        w = state.window
-        op, pv = w.get()
-        full = self.settings.window_samples
-        return Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process, sp=w.get_sp(), full_samples=full)
+        return self._window(loop_id, state)
 
     def seen_report(self, key: str, payload: bytes) -> None:
         """A report on the key space (from any agent): the loop's windows up to its end are reported.

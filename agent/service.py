@@ -314,7 +314,7 @@ class AgentService:
                 report = assemble(draft, agent_id=self.settings.agent_id)
             else:
                 if self.sizing.wanted(draft, time.monotonic()):
-                    self._size_or_queue(w, draft.partial)
+                    self._size_or_queue(w)
                 report = self.sizing.apply(draft, self.settings.agent_id)
                 if needs_sizing(draft):
                     self.drafts[w.loop_id] = draft
@@ -334,21 +334,21 @@ class AgentService:
         self.core.completed(len(arrivals), arrivals, time.monotonic())
 
     # background sizing ---------------------------------------------------------------------------
-    def _size_or_queue(self, w, partial: bool) -> None:
+    def _size_or_queue(self, w) -> None:
         """Size the window now if the worker is free, else queue the loop until it is, when its window is
         taken afresh from the rolling buffer (the newest; a loop whose stream ends while another is being
         sized is still sized).  The queue holds loop ids, not windows: a plant of thousands of sticky loops
         of unknown process waits in it, 12 kB a window copied."""
         if self.sizing.has_room():
-            self._size(*self._job(w, partial))
+            self._size(*self._job(w))
         else:
             self._size_queue.pop(w.loop_id, None)  # in the order loops last asked
             self._size_queue[w.loop_id] = None
 
     @staticmethod
-    def _job(w, partial: bool) -> tuple:
+    def _job(w) -> tuple:
         sp = None if w.sp is None else np.array(w.sp)
-        return (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, partial, sp)
+        return (w.loop_id, np.array(w.op), np.array(w.pv), float(w.ts_s), w.t_end_s, w.partial, sp)
 
     def _size(self, loop_id, op, pv, ts_s, t_end_s, partial, sp=None) -> None:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
@@ -379,7 +379,7 @@ class AgentService:
             del self._size_queue[loop_id]
             w = self.core.window_of(loop_id)
             if w is not None:  # else handed to another agent, or its window restarted empty
-                self._size(*self._job(w, w.full_samples is not None and len(w.op) < w.full_samples))
+                self._size(*self._job(w))
 
     def health(self, advance_rates: bool = False) -> AgentHealth:
         """The counters; rates are over the time since the last published health message."""

@@ -152,7 +152,7 @@ class Quantifier:
             problems, ev = problems_all[i], evs[i]
             verdict = verdicts[i]
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
-            partial = w.full_samples is not None and len(w.op) < w.full_samples
+            partial = w.partial
             if partial:
                 warnings.append(
                     f"partial window: {len(w.op)} of {w.full_samples} samples (a new loop); "

@@ -50,6 +50,11 @@ class Window:
     """Without a carry: a window called sticky reports its verdict and no friction numbers this time
     (the agent rations readings while it catches up); a warning says so."""
 
+    @property
+    def partial(self) -> bool:
+        """A new loop's first window, shorter than the agent's full one."""
+        return self.full_samples is not None and len(self.op) < self.full_samples
+
     def validate(self) -> None:
         op, pv = np.asarray(self.op), np.asarray(self.pv)
         if op.ndim != 1 or op.shape != pv.shape:

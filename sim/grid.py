@@ -84,27 +84,6 @@ def random_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
     return specs
 
 
-HEALTHY_LOAD_PERIOD_S = (10.0, 500.0)
-HEALTHY_LOAD_AMPLITUDE_PCT = (0.2, 4.0)
-"""The external sine load of ``healthy_loops``: the wide draws' external oscillation (``WIDE_EFFECT_RANGES``)."""
-
-
-def healthy_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
-    """The canonical loop with a healthy valve (fs = fd = 0) that still cycles: an external sine load at the
-    process input (period and amplitude log-uniform over ``HEALTHY_LOAD_PERIOD_S``, ``HEALTHY_LOAD_AMPLITUDE_PCT``)
-    under the thesis's disturbances (``random_disturbance``; none where not ``noisy``).  Without the load a
-    healthy canonical loop is still: the thesis's disturbances are sized on the clean signal's RMS, then zero."""
-    rng = np.random.default_rng(seed)
-    specs = []
-    for _ in range(n):
-        period = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD_PERIOD_S))))
-        amplitude = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD_AMPLITUDE_PCT))))
-        ext = Extensions(osc_period_s=period, osc_amplitude_pct=amplitude)
-        disturbance = random_disturbance(rng) if noisy else None
-        specs.append(LoopSpec(0.0, 0.0, disturbance=disturbance, extensions=ext, seed=int(rng.integers(2**31))))
-    return specs
-
-
 EFFECT_RANGES: dict[str, dict[str, tuple[float, float]]] = {
     "none": {},
     "dead_time": {"dead_time_s": (1.0, 5.0)},
@@ -137,6 +116,26 @@ gains a third to three times the nominal, external cycles from faster to far slo
 (10-500 s), quanta at and below the noise, self-regulating processes from ten to five hundred seconds.  The
 small ends are where naming is hardest: an effect near half a sample hides in the noise."""
 DRAWS = {"catalogue": EFFECT_RANGES, "wide": WIDE_EFFECT_RANGES}
+
+
+HEALTHY_LOAD = WIDE_EFFECT_RANGES["external_oscillation"]
+"""The external sine load of ``healthy_loops``: the wide draws' external oscillation."""
+
+
+def healthy_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
+    """The canonical loop with a healthy valve (fs = fd = 0) that still cycles: an external sine load at the
+    process input (period and amplitude log-uniform over ``HEALTHY_LOAD``'s ranges)
+    under the thesis's disturbances (``random_disturbance``; none where not ``noisy``).  Without the load a
+    healthy canonical loop is still: the thesis's disturbances are sized on the clean signal's RMS, then zero."""
+    rng = np.random.default_rng(seed)
+    specs = []
+    for _ in range(n):
+        period = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD["osc_period_s"]))))
+        amplitude = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD["osc_amplitude_pct"]))))
+        ext = Extensions(osc_period_s=period, osc_amplitude_pct=amplitude)
+        disturbance = random_disturbance(rng) if noisy else None
+        specs.append(LoopSpec(0.0, 0.0, disturbance=disturbance, extensions=ext, seed=int(rng.integers(2**31))))
+    return specs
 
 
 def effect_loops(

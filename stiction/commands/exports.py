@@ -63,10 +63,9 @@ def windows(
             need = min_samples if flag == "last" else 1
             raise StictionError(f"--{flag} {value}: need at least {need} samples")
     length = args.last or DEFAULT_WINDOW
-    check_span(args.pv_span)  # once, before any file: a bad range is the command's error, not each file's
+    span = check_span(args.pv_span)  # once, before any file: a bad range is the command's error, not each file's
     for path in expand_paths(args.paths):
         try:
-            span = tuple(args.pv_span) if args.pv_span else None
             found = (
                 read_windows(path, length, args.every, args.ts, columns, span)
                 if args.every
