@@ -146,12 +146,17 @@ class Quantifier:
             learned[cycle_ok], spread[cycle_ok], ood[cycle_ok] = out["fs_fd_pct"], out["fs_fd_std_pct"], out["ood"]
         phys = a.physical
         physical_ok = policy.physical_trusted(phys, level, a.period_s, op.shape[1], ts_s)
+        band = policy.band_read(phys, level)
         clock = self._lap("readings", clock)
         results: list[Result] = []
         for i, w in enumerate(windows):
             problems, ev = problems_all[i], evs[i]
             verdict = verdicts[i]
+            if band[i]:
+                verdict = policy.called_by_band(verdict, float(phys.fs_pct[i]), float(phys.fs_se_pct[i]))
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
+            if verdict is not verdicts[i]:
+                warnings.append(f"stiction: {verdict.reason}")
             partial = w.partial
             if partial:
                 warnings.append(
@@ -202,8 +207,13 @@ class Quantifier:
                 warnings.append(f"no friction numbers: {verdict.verdict.replace('_', ' ')} ({verdict.reason})")
             elif verdict.verdict == "bad_data":
                 warnings.append("no estimate: the data cannot show a valve's friction (above)")
+            elif method == "none" and level[i] and not np.isfinite(a.period_s[i]):
+                warnings.append(
+                    "no estimate: OP has no period (its autocorrelation has no peak: a drift, or a single slip "
+                    "in the window), which every reading needs"
+                )
             elif method == "none" and level[i]:
-                warnings.append("no estimate: no oscillation period found, or every reading withheld")
+                warnings.append("no estimate: every reading withheld")
             fields = {
                 **friction_fields(method, estimate, w.t_end_s),
                 **_blocks(shown, level[i]),

@@ -32,14 +32,14 @@ def _windows(specs, r, process="level"):
 
 
 def test_noise_free_cases_are_read_physically_and_exactly(quantifier, cases):
-    """Every noise-free case called sticky is read physically and exactly.  One in ten may not be called: in
-    this realisation of the chaotic loop C7's cycle is a sine to He's shape test (SI 0.37 and 0.28 against
-    0.73-0.96 in four other realisations), and the canonical model reads it as an external load."""
+    """Every noise-free case is called sticky and read physically and exactly.  In this realisation of the
+    chaotic loop C7's cycle is a sine to He's shape test (SI 0.37 and 0.28 against 0.73-0.96 in four other
+    realisations), which the canonical model reads as an external load: the slips call it."""
     specs, r = cases
     reports = quantifier.quantify(_windows(specs, r)[:10])
     pairs = zip(reports, list(specs.values())[:10], strict=True)
     called = [(rep, spec) for rep, spec in pairs if rep.verdict == "stiction"]
-    assert len(called) >= 9
+    assert len(called) == 10
     errors = []
     for rep, spec in called:
         assert rep.method == "physical" and not rep.denoised
@@ -417,3 +417,32 @@ def test_the_canonical_loop_is_judged_as_itself_under_heavy_noise_and_under_a_lo
         calls.append(np.array([rep.verdict == "stiction" for rep in reports]))
     assert calls[0].sum() >= 15, f"sticky loops under heavy noise called {calls[0].sum()} of 16"
     assert calls[1].sum() <= 1, f"healthy loops under a fast load called sticky: {calls[1].sum()} of 16"
+
+
+# sticky canonical valves whose cycle the detector read as an external load: random loops of the design set of
+# quantify.policy.BAND_CALLS_FS_PCT (seed, index), wide bands cycling slowly under a brownian or a sine load
+SHAPE_MISSED = ((777, 72), (777, 140), (778, 30), (778, 135), (779, 184), (780, 187))
+
+
+def test_a_level_loop_whose_slips_read_a_band_is_sticky_whatever_its_cycle_looks_like(quantifier):
+    """Hidden effect: sticky valves of the thesis's loop whose cycle looks like an external load to the detector
+    are called on the valve's own evidence, the slips read from PV, and the report says so; healthy valves cycling
+    under external sine loads, whose OP the physical reading can cut into small slips, stay uncalled."""
+    from stiction.sim.grid import healthy_loops, random_loops
+
+    specs = [random_loops(index + 1, seed)[index] for seed, index in SHAPE_MISSED]
+    r = simulate(specs).kept()
+    reports = quantifier.quantify([Window(f"w{i}", r.op[i], r.pv[i], process="level") for i in range(len(specs))])
+    assert [rep.verdict for rep in reports] == ["stiction"] * len(specs)
+    by_slips = [rep for rep in reports if rep.stiction_probability < 0.5]
+    assert len(by_slips) >= 3, "the loops no longer test the slips' evidence: the detector calls them by shape"
+    for rep in by_slips:
+        assert any(w.startswith("stiction: the valve's slips read fs") for w in rep.warnings), rep.warnings
+    read = [(rep.fs_pct, spec.fs_pct) for rep, spec in zip(reports, specs, strict=True) if rep.fs_pct is not None]
+    assert len(read) >= 5 and all(abs(est - fs) < 5 for est, fs in read), read
+
+    healthy = healthy_loops(64, 4243)
+    h = simulate(healthy).kept()
+    calls = quantifier.quantify([Window(f"h{i}", h.op[i], h.pv[i], process="level") for i in range(len(healthy))])
+    by_band = [c for c in calls if any(w.startswith("stiction: the valve's slips") for w in c.warnings)]
+    assert not by_band, [c.warnings for c in by_band]
