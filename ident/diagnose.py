@@ -29,12 +29,12 @@ from stiction.ident.cause_fit import (
     baseline,
     combined,
     fit_in_full,
-    longest_lag_s,
     names,
     quantised,
     refined,
     screen,
     spread,
+    told_lag_s,
     widened,
 )
 from stiction.ident.friction import friction
@@ -216,8 +216,8 @@ def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> li
     a cause accepted by less than ``TIE_CRITERION`` (it, or nothing more); a rival whose fit came
     within that of the accepted cause's; a cause turned down by no more than that; a process gain turned
     down whose interval holds the nominal (``_gain_interval``).  And where the
-    process reads as integrating, the lag beyond which the record cannot tell a self-regulating
-    process from it (``ident.cause_fit.longest_lag_s``).  Quantisation is read from the values'
+    process reads as integrating, the lag beyond which the record may not tell a self-regulating
+    process from it (``ident.cause_fit.told_lag_s``).  Quantisation is read from the values'
     lattice, not weighed, and ties with nothing."""
     out: list[Tie] = []
     for step in steps:
@@ -241,15 +241,15 @@ def ties(steps: list[dict[str, Candidate]], chosen: Model, record: Record) -> li
             if c != won.cause and k.criterion - won.criterion <= TIE_CRITERION
         ]
     if chosen.hypothesis.dynamics.time_constant_s is None:
-        longest = longest_lag_s(record)
+        told = told_lag_s(record)
         out.append(
             Tie(
                 "none",
                 "process_type",
                 None,
-                {"time_constant_s_low": longest},
-                f"a self-regulating process with a lag of {longest:.4g} s or longer: this "
-                f"{record.n * record.ts_s:.4g} s record cannot tell it from integrating",
+                {"time_constant_s_low": told},
+                f"a self-regulating process with a lag of {told:.4g} s or longer: this "
+                f"{record.n * record.ts_s:.4g} s record does not always tell it from integrating",
             )
         )
     return out

@@ -36,10 +36,10 @@ def test_json_names_the_cause_and_checks_the_valve_where_mv_is_there(loops, caps
         assert r["fs_pct"] == pytest.approx(40, abs=3) and r["s_se_pct"] > 0
         assert set(r["candidates"]) >= {"dead_time", "deadband", "quantization", "sensor_lag"}
         assert not r["candidates"]["deadband"]["identifiable"]
-        # an integrating reading carries the record's limit on a lag: 1000 s of record, a third of it
+        # an integrating reading carries the record's limit on a lag: 1000 s of record, a sixth of it
         (limit,) = [t for t in r["cannot_tell"] if t["delta_criterion"] is None]
         assert limit["alternative"] == "process_type"
-        assert limit["parameters"]["time_constant_s_low"] == pytest.approx(1000 / 3, rel=0.01)
+        assert limit["parameters"]["time_constant_s_low"] == pytest.approx(1000 / 6, rel=0.01)
     assert not no_mv["uses_mv"] and no_mv["valve_check"] is None
     assert with_mv["uses_mv"] and with_mv["valve_check"]["model"] == "sticky"
     assert with_mv["valve_check"]["calibration_gain"] == pytest.approx(1, abs=0.02)
@@ -50,7 +50,7 @@ def test_summary_and_plot(loops, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "causes: dead_time" in out and "fit error: canonical" in out
     process = next(line for line in out.splitlines() if "process:" in line)
-    assert "integrating" in process and "or a self-regulating process with a lag of 333.3 s or longer" in process
+    assert "integrating" in process and "or a self-regulating process with a lag of 166.7 s or longer" in process
     png = tmp_path / "dt_no_mv.png"
     assert png.stat().st_size > 20_000
 
