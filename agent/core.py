@@ -114,6 +114,9 @@ class AgentCore:
         """End of the latest window of every loop reported by any agent (seen on the key space): an agent
         that inherits a shard keeps its loops' report schedule."""
         self.history_merged = 0
+        self._keys: dict[str, tuple[str, bool, int]] = {}
+        """Samples keys seen and valid: (loop id, sharded, shard), so that a key is parsed and its shard hashed
+        once, not at every message (``_parse_key``)."""
 
     # ownership -------------------------------------------------------------------------------
     def set_agents(self, alive: set[str]) -> bool:
@@ -157,13 +160,11 @@ class AgentCore:
         """One message from ``{prefix}/loop/{id}/samples`` (or its shard's key); anything wrong is
         counted, never raised.  ``history``: a publisher's reply with a loop's recent samples, which
         go in front of what the window holds."""
-        loop_id = keys.loop_id_of(self.settings.prefix, key)
-        if loop_id is None:
-            return self.reject("bad_key", key)
-        sharded = keys.is_sharded(key)
-        if sharded and key.rsplit("/", 1)[1] != str(keys.shard_of(loop_id)):
-            return self.reject("wrong_shard", key)
-        if self.role(loop_id) >= (1 if sharded else self.settings.replicas):
+        parsed = self._keys.get(key) or self._parse_key(key)
+        if parsed is None:
+            return None
+        loop_id, sharded, shard = parsed
+        if self.shard_role(shard) >= (1 if sharded else self.settings.replicas):
             return None  # another agent's loop, and not one this agent would inherit
         if len(payload) > self.settings.max_payload_bytes:
             return self.reject("oversized_payload", f"{key}: {len(payload)} bytes")
@@ -209,6 +210,20 @@ class AgentCore:
             state.queued = True
             self._queue.append(loop_id)
         return None
+
+    def _parse_key(self, key: str) -> tuple[str, bool, int] | None:
+        """A samples key's loop id, whether it is a shard's key, and the loop's shard; None (rejected) where
+        the key is not a samples key or names the wrong shard.  Valid keys are remembered, as many as
+        twice the loops an agent may hold."""
+        loop_id = keys.loop_id_of(self.settings.prefix, key)
+        if loop_id is None:
+            return self.reject("bad_key", key)
+        sharded, shard = keys.is_sharded(key), keys.shard_of(loop_id)
+        if sharded and key.rsplit("/", 1)[1] != str(shard):
+            return self.reject("wrong_shard", key)
+        if len(self._keys) < 2 * self.settings.max_loops:
+            self._keys[key] = (loop_id, sharded, shard)
+        return loop_id, sharded, shard
 
     def _merge_history(self, loop_id: str, state: _Loop, batch: SampleBatch, now_s: float) -> None:
         """A loop's recent samples from its publisher (an inherited shard): the window becomes the

@@ -387,6 +387,12 @@ def test_a_sharded_loop_is_held_by_its_owner_only_and_dropped_when_its_shard_mov
     wrong = keys.samples("stiction/demo", "L1") + f"/{(keys.shard_of('L1') + 1) % keys.SHARDS}"
     a.ingest(wrong, _payload(10), JSON, 1.0)
     assert a.rejected["wrong_shard"] == 1
+    a.ingest(wrong, _payload(10), JSON, 1.5)
+    assert a.rejected["wrong_shard"] == 2  # a wrong key is refused every time, never remembered
+    for lid in loops:  # keys seen before the membership changed: whose loop it is is asked afresh
+        a.ingest(_sharded_key(lid), _payload(10, loop_id=lid), JSON, 2.0)
+    assert set(a.loops) == {lid for lid in loops if a.owns(lid)}
+    assert all(a.loops[lid].window.next_seq == 20 for lid in a.loops)
 
 
 def test_the_window_for_a_background_sizing_is_the_loops_newest_and_only_an_owned_ones():
