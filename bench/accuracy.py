@@ -121,7 +121,8 @@ def bench_accuracy(
             "n": n,
             "identified": sum(x.process.source == "identified" for x in plain),
         }
-        methods_used = {m: sum(x.method == m for x in reports) for m in ("physical", "learned", "thesis", "none")}
+        methods = ("physical", "combined", "learned", "thesis", "none")
+        methods_used = {m: sum(x.method == m for x in reports) for m in methods}
         results["a_thesis"][set_name] = {"mae_pp": _mae(a, truth), "s_per_loop": t_thesis / n, "n": n}
         results["b_pipeline"][set_name] = {
             "mae_pp": _mae(b, truth),

@@ -194,9 +194,13 @@ class Quantifier:
             fresh = len(warnings)
             if np.isfinite(ood[i]) and ood[i] > 1:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
+            physical_i = (phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i])
+            learned_i = (learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1])
+            agree, combined = policy.combine(physical_i, learned_i)
             candidates = [
-                ("physical", physical_ok[i], phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i]),
-                ("learned", cycle_ok[i], learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1]),
+                ("physical", physical_ok[i], *physical_i),
+                ("combined", level[i] and cycle_ok[i] and agree, *combined),
+                ("learned", cycle_ok[i], *learned_i),
                 ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
             ]
             method, estimate, shown, why_not = policy.choose(

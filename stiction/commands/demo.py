@@ -131,7 +131,7 @@ def summarise(reports, truths, wall_s: float, published: int, health) -> dict:
         ]
     )
     by_method = {}
-    for m in ("physical", "learned", "thesis"):
+    for m in ("physical", "combined", "learned", "thesis"):
         e = [x for (r, _), x in zip(pairs, err, strict=True) if r.method == m]
         if e:
             by_method[m] = {"loops": len(e), "mae_pp": float(np.mean(e))}

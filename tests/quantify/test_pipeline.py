@@ -59,7 +59,7 @@ def test_white_noise_windows_are_denoised_and_carry_an_uncertainty(quantifier, c
             assert rep.fs_pct is None and rep.method == "none"
             assert any("lean to stiction" in w for w in rep.warnings) == (rep.stiction_probability >= LEANS_AT)
             continue
-        assert rep.method in ("physical", "learned")
+        assert rep.method in ("physical", "combined", "learned")
         assert rep.fs_se_pct is not None and rep.fs_se_pct > 0
         errors += [abs(rep.fs_pct - spec.fs_pct), abs(rep.fd_pct - spec.fd_pct)]
     assert len(errors) >= 4 and np.mean(errors) < 1.5
