@@ -85,46 +85,63 @@ def half_cycle_peaks(y, crossings):
 def shape_errors(y, crossings, apexes, min_samples):
     """``(sum of the half sine's MSE, sum of the best triangle's MSE, half cycles used)`` over the
     half cycles ``y[a..b]`` (both ends) of at least ``min_samples`` samples, each fitted with
-    ``p * shape + q`` in closed form (``detect.shape``)."""
+    ``p * shape + q`` in closed form (``detect.shape``).  The half sine's sums in one pass (its values by the
+    angle-addition recurrence: within 2e-11 of ``sin`` over a half cycle of 1,000 samples, 6e-9 of 20,000);
+    each triangle's from the half cycle's prefix sums of ``y`` and ``k * y`` and the closed sums of ``k`` and ``k^2`` on
+    either side of its apex, so that the apexes cost nothing per sample."""
     mse_sine = 0.0
     mse_triangle = 0.0
     used = 0
     n_apex = apexes.size
+    p0 = np.empty(y.size + 1)  # p0[j] = sum of y over the half cycle's first j samples, p1 the same of k * y
+    p1 = np.empty(y.size + 1)
     for h in range(crossings.size - 1):
         a, b = crossings[h], crossings[h + 1]
         m = b - a + 1
         if m < min_samples:
             continue
         used += 1
-        sy = 0.0
-        syy = 0.0
+        d = m - 1.0
+        sy = syy = ss = sss = ssy = 0.0
+        p0[0] = p1[0] = 0.0
+        step = 2.0 * math.cos(math.pi / d)  # sin((k + 1) t) = 2 cos(t) sin(k t) - sin((k - 1) t), t = pi / d
+        f_prev, f = -math.sin(math.pi / d), 0.0
         for k in range(m):
             v = y[a + k]
+            if k:
+                f_prev, f = f, step * f - f_prev
             sy += v
             syy += v * v
+            ss += f
+            sss += f * f
+            ssy += f * v
+            p0[k + 1] = p0[k] + v
+            p1[k + 1] = p1[k] + k * v
         cyy = syy - sy * sy / m
+        css = sss - ss * ss / m
+        csy = ssy - ss * sy / m
+        mse_sine += max(cyy - csy * csy / css, 0.0) / m
+        k_all = d * m / 2.0  # sum of k over the half cycle
+        k2_all = d * m * (2.0 * d + 1.0) / 6.0  # sum of k^2
         best = np.inf
-        for s in range(n_apex + 1):
-            ss = 0.0
-            sss = 0.0
-            ssy = 0.0
-            for k in range(m):
-                u = k / (m - 1)
-                if s == 0:
-                    f = math.sin(math.pi * u)
-                else:
-                    p = apexes[s - 1]
-                    f = u / p if u <= p else (1 - u) / (1 - p)
-                v = y[a + k]
-                ss += f
-                sss += f * f
-                ssy += f * v
-            css = sss - ss * ss / m
-            csy = ssy - ss * sy / m
+        for s in range(n_apex):
+            p = apexes[s]
+            c = min(int(p * d) + 1, m)  # samples with k / d <= p: the rising side
+            while c < m and c / d <= p:
+                c += 1
+            while c > 0 and (c - 1) / d > p:
+                c -= 1
+            rise, fall = 1.0 / (p * d), 1.0 / (1.0 - p)  # f = rise * k before the apex, fall * (1 - k / d) after
+            k_l = c * (c - 1.0) / 2.0
+            k2_l = (c - 1.0) * c * (2.0 * c - 1.0) / 6.0
+            k_r, k2_r, n_r = k_all - k_l, k2_all - k2_l, m - c
+            sf = rise * k_l + fall * (n_r - k_r / d)
+            sff = rise * rise * k2_l + fall * fall * (n_r - 2.0 * k_r / d + k2_r / (d * d))
+            sfy = rise * p1[c] + fall * ((sy - p0[c]) - (p1[m] - p1[c]) / d)
+            css = sff - sf * sf / m
+            csy = sfy - sf * sy / m
             mse = max(cyy - csy * csy / css, 0.0) / m
-            if s == 0:
-                mse_sine += mse
-            elif mse < best:
+            if mse < best:
                 best = mse
         mse_triangle += best
     return mse_sine, mse_triangle, used
