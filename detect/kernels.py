@@ -184,15 +184,6 @@ def still_share(y, pv, u, edge):
 
 
 @njit(cache=True, nogil=True)
-def _quantile(sorted_x, q):
-    """numpy's default (linear) quantile of an ascending array."""
-    at = q * (sorted_x.size - 1)
-    lo = int(math.floor(at))
-    hi = min(lo + 1, sorted_x.size - 1)
-    return sorted_x[lo] + (at - lo) * (sorted_x[hi] - sorted_x[lo])
-
-
-@njit(cache=True, nogil=True)
 def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
     """(share, travel): the share of spans (a ``parts``-th of the window, every quarter span) in
     which OP ``u`` (median-filtered) ramps, a straight line (R^2 >= ``min_r2``) over at least
@@ -207,9 +198,8 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
         for j in range(k - 2, k + 3):
             total += y[min(max(j, 0), n - 1)]
         level[k] = total / 5.0
-    s_level, s_u = np.sort(level), np.sort(u)
-    range_pv = _quantile(s_level, 0.975) - _quantile(s_level, 0.025)
-    range_op = _quantile(s_u, 0.975) - _quantile(s_u, 0.025)
+    range_pv = np.quantile(level, 0.975) - np.quantile(level, 0.025)  # by selection, not a sort: half the time
+    range_op = np.quantile(u, 0.975) - np.quantile(u, 0.025)
     if range_pv < 6.0 * noise or not range_op > 0:
         return 0.0, 0.0
     span = max(n // parts, 10)
