@@ -446,3 +446,16 @@ def test_a_level_loop_whose_slips_read_a_band_is_sticky_whatever_its_cycle_looks
     calls = quantifier.quantify([Window(f"h{i}", h.op[i], h.pv[i], process="level") for i in range(len(healthy))])
     by_band = [c for c in calls if any(w.startswith("stiction: the valve's slips") for w in c.warnings)]
     assert not by_band, [c.warnings for c in by_band]
+
+
+def test_a_sticky_window_without_a_period_says_that_is_why_it_has_no_numbers(quantifier):
+    """A stem stuck for most of the window while OP drifts, then one slip into a cycle (a loop of the thesis
+    holdout): sticky, but OP's autocorrelation has no peak, which every reading needs; the report says so."""
+    from stiction.bench.accuracy import HOLDOUT_SEED
+    from stiction.sim.grid import random_loops
+
+    spec = random_loops(106, HOLDOUT_SEED)[105]
+    r = simulate([spec]).kept()
+    (rep,) = quantifier.quantify([Window("drift", r.op[0], r.pv[0], process="level")])
+    assert rep.verdict == "stiction" and rep.fs_pct is None and rep.method == "none"
+    assert any(w.startswith("no estimate: OP has no period") for w in rep.warnings), rep.warnings
