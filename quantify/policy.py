@@ -9,7 +9,7 @@ cycle ensemble.  The headline ``fs_pct``/``fd_pct`` come from the first that a v
 3. else ``learned``, the cycle ensemble on the INLPCA curve;
 4. else ``thesis``; ``none`` if not even that could run.
 
-All three read the thesis's level loop: where its process is neither declared nor recognised
+All of them read the thesis's level loop: where its process is neither declared nor recognised
 (``canonical_level``), none speaks (``quantify.assembly`` says why).
 """
 
@@ -55,7 +55,7 @@ def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: i
 AGREE_SE = 2.0
 """The physical reading beyond its trust and the learned one are combined where they agree within this many
 standard errors of their difference, in fs and in fd (the usual two-sigma check, not tuned).  On the loops
-the learned ensemble reads (random loops of seeds 777-780, 404 of 800) that halves of them agree, and their
+the learned ensemble reads (random loops of seeds 777-780, 404 of 800) about half agree, and their
 error falls from 1.51 to 1.34 pp; alone, the physical reading there errs by 5.6 pp (its outliers), the learned
 by 1.5."""
 
