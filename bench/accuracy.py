@@ -57,6 +57,23 @@ def _mae_misses_counted(est: np.ndarray, truth: np.ndarray) -> float:
     return float(np.mean(np.abs(np.where(np.isfinite(est), est, 0.0) - truth)))
 
 
+EXACT_PP = 0.01
+"""An error this small (pp of 500 lbf) is a number read exactly: noise-free slips read fd to 1e-9 with a standard
+error of 1e-10, and such a reading is not overconfident."""
+
+
+def _within_2se(est: np.ndarray, se: np.ndarray, truth: np.ndarray) -> list[float | None]:
+    """The share of the numbers given, fs and fd apart, whose truth lies within two of their standard errors
+    (the report's uncertainty, judged: 95 % if the errors were normal and right), an error within
+    ``EXACT_PP`` counting as inside; None where none was given."""
+    out = []
+    for k in range(2):
+        given = np.isfinite(est[:, k]) & np.isfinite(se[:, k])
+        inside = np.abs(est[given, k] - truth[given, k]) <= np.maximum(2 * se[given, k], EXACT_PP)
+        out.append(float(inside.mean()) if given.any() else None)
+    return out
+
+
 def _called(reports) -> float:
     return float(np.mean([r.verdict == "stiction" for r in reports]))
 
@@ -110,6 +127,7 @@ def bench_accuracy(
         reports, t_best = _timed(lambda w=windows: quantifier.quantify(w))
         a = np.array([[x.thesis.fs_pct or np.nan, x.thesis.fd_pct or np.nan] for x in thesis_reports])
         b = np.array([[_nan(x.fs_pct), _nan(x.fd_pct)] for x in reports])
+        b_se = np.array([[_nan(x.fs_se_pct), _nan(x.fd_se_pct)] for x in reports])
         undeclared = [Window(w.loop_id, w.op, w.pv) for w in windows]
         plain, t_plain = _timed(lambda w=undeclared: quantifier.quantify(w))
         c = np.array([[_nan(x.fs_pct), _nan(x.fd_pct)] for x in plain])
@@ -131,6 +149,7 @@ def bench_accuracy(
             "s_per_loop": t_best / n,
             "n": n,
             "methods": methods_used,
+            "within_2se": _within_2se(b, b_se, truth),
         }
         if hammerstein:
             c, t_c = _timed(lambda r=r: hammerstein_search(r.op, r.pv))
@@ -183,6 +202,9 @@ def print_table(figures: dict) -> None:
     found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
     cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)
     print(f"without flags, identified as the thesis's level loop: {cells}")
+    cover = {s: figures["methods"]["b_pipeline"][s].get("within_2se") for s in sets}
+    shares = [f"{s} " + " / ".join("-" if v is None else f"{100 * v:.0f} %" for v in c) for s, c in cover.items() if c]
+    print("(b) truth within two of the reported standard errors, fs / fd: " + "; ".join(shares))
     used = {s: figures["methods"]["b_pipeline"][s]["methods"] for s in sets}
     print(
         "(b) used: " + "; ".join(f"{s}: " + ", ".join(f"{k} {v}" for k, v in u.items() if v) for s, u in used.items())
