@@ -76,6 +76,22 @@ def combine(physical: tuple, learned: tuple) -> tuple[bool, tuple[float, float, 
     return True, (float(mean[0]), float(mean[1]), float(se[0]), float(se[1]))
 
 
+ERROR_SCALE = {"physical": (1.45, 2.6), "combined": (1.2, 1.5), "learned": (2.35, 2.4)}
+"""The factors (fs, fd) by which each reading's own standard errors are widened in the report, so that two of
+them hold the truth 95 % of the time: the 95th percentile of |error| / error over 2, on the loops each reading
+spoke for among random loops of seeds 777-780 (387, 207 and 197 of 800; 2026-11-26).  The raw errors, not the
+widened ones, decide the trust, the band, the agreement and the impossible values: those rules were set on
+them.  Before: two errors held the truth for 89 / 81 % (physical, fs / fd), 93 / 88 % (combined) and 72 / 70 %
+(learned) of those loops."""
+
+
+def widened(name: str, estimate) -> tuple:
+    """``(fs, fd, fs_se, fd_se)`` with the errors widened by ``ERROR_SCALE`` (unchanged for a reading without)."""
+    k_fs, k_fd = ERROR_SCALE.get(name, (1.0, 1.0))
+    fs, fd, fs_se, fd_se = estimate
+    return fs, fd, fs_se * k_fs, fd_se * k_fd
+
+
 def band_read(phys, level: np.ndarray) -> np.ndarray:
     """[W] bool: the level windows whose slips read a band no healthy valve shows (``BAND_CALLS_FS_PCT``)."""
     worst_se = np.fmax(phys.fs_se_pct, phys.fd_se_pct)
@@ -133,7 +149,8 @@ def choose(candidates, op_range_pct: float, verdict: str, known_process: bool):
             method, chosen = name, tuple(estimate)
     if method == "combined" and impossible(*given["physical"], op_range_pct) is None:
         shown["physical"] = given["physical"]  # the combination's physical part is shown beside its learned one
-    return method, chosen, shown, warnings
+    shown = {name: None if e is None else widened(name, e) for name, e in shown.items()}
+    return method, (widened(method, chosen) if method != "none" else chosen), shown, warnings
 
 
 def canonical_level(op, pv, ts_s: float, sps, undeclared: np.ndarray) -> np.ndarray:
