@@ -34,10 +34,10 @@ class SampleBatch(BaseModel):
     @model_validator(mode="after")
     def _equal_lengths(self):
         n = len(self.op)
-        if len(self.pv) == n and self.sp is None and self.mv is None and self.mode is None:
-            return self  # checked for every message an agent receives: the common case first
-        if len(self.pv) == n and all(x is None or len(x) == n for x in (self.sp, self.mv, self.mode)):
-            return self
+        sp, mv, mode = self.sp, self.mv, self.mode
+        if (len(self.pv) == n and (sp is None or len(sp) == n) and (mv is None or len(mv) == n)
+                and (mode is None or len(mode) == n)):  # fmt: skip
+            return self  # checked for every message an agent receives, without a generator: the common case first
         lengths = {name: len(x) for name in ("op", "pv", "sp", "mv", "mode") if (x := getattr(self, name)) is not None}
         if len(set(lengths.values())) > 1:
             raise ValueError(f"op, pv (and sp, mv, mode) must have equal lengths, got {lengths}")
