@@ -35,8 +35,12 @@ def _batch(**kw):
 
 def test_sample_batch_refuses_what_a_window_cannot_hold():
     SampleBatch.model_validate(_batch())
+    SampleBatch.model_validate(_batch(sp=[1.0, 1.0], mv=[0.0, 1.0], mode=[1.0, 1.0]))
     for bad in (
         _batch(pv=[0.0]),
+        _batch(sp=[1.0]),
+        _batch(mv=[1.0, 1.0, 1.0]),
+        _batch(sp=[1.0, 1.0], mode=[1.0]),
         _batch(ts_s=0),
         _batch(seq=-1),
         _batch(op=[]),
