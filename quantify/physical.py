@@ -107,6 +107,8 @@ def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = 
         fs[i], fd[i], fs_se[i], fd_se[i] = _from_slips(gap[i, k - 1], gap[i, k], gap_after[i, k])
         stuck = ~slipped[i]
         stuck[0] = False  # its predecessor is unknown: it may have been a slip
+        if not stuck.any():  # a stem moving at every sample: no stuck gap bounds the band from below
+            continue
         low, high = gap[i, :-1][stuck].max(), gap[i, k].min()
         if low < high:  # no noise: the intersection of all brackets
             bracketed[i] = True

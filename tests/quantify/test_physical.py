@@ -15,6 +15,17 @@ def test_mv_follows_from_pv_for_the_level_loop():
     np.testing.assert_allclose(mv[:, physical.SETTLE_SAMPLES :], r.mv[:, physical.SETTLE_SAMPLES :], atol=1e-6)
 
 
+def test_a_stem_that_moves_at_every_sample_is_read_without_a_bracket_and_the_batch_goes_on():
+    # PV a parabola: the level loop's stem, read from PV's slope, moves the same at every sample, so
+    # every sample passes as a slip and none as stuck (a healthy loop under a smooth load did this)
+    t = np.arange(1000.0)
+    op = np.vstack([np.linspace(0.0, 50.0, t.size), np.sin(t / 40)])
+    pv = np.vstack([1e-4 * t**2, np.cos(t / 40)])
+    reading = physical.read(op, pv)
+    assert not reading.bracketed[0]
+    assert reading.slips[0] > 0.9 * (t.size - physical.SETTLE_SAMPLES)
+
+
 def _white_noise_loops(where, coefficient):
     specs = [
         LoopSpec(fs, fd, disturbance=Disturbance("gaussian", where, coefficient), seed=s)
