@@ -74,6 +74,28 @@ class AgentSettings:
         return self.core.prefix
 
 
+def quantify_isolated(quantify, windows: list, reject) -> list:
+    """``quantify(windows)``'s results; if the batch fails, each window alone, so that one bad window (or a
+    fault of ours in one) costs only its own report: None in its place, and ``reject(reason, message)``
+    says why in the health message's counts."""
+    try:
+        return list(quantify(windows))
+    except Exception:
+        pass
+    results = []
+    for w in windows:
+        try:
+            results.extend(quantify([w]))
+        except StictionError as e:
+            reject("window_refused", str(e))
+            results.append(None)
+        except Exception as e:
+            log.exception("quantifying %s failed", w.loop_id)
+            reject("window_refused", f"{w.loop_id}: internal error ({e.__class__.__name__}: {e})")
+            results.append(None)
+    return results
+
+
 class AgentService:
     def __init__(self, settings: AgentSettings, session, quantifier: Quantifier | None = None, sink=None):
         import zenoh
@@ -289,17 +311,7 @@ class AgentService:
         return self.quantifier.results(windows, details=self.sink is not None)
 
     def _report(self, due) -> None:
-        windows = [w for w, _ in due]
-        try:
-            results = self._quantify(windows)
-        except StictionError:  # one bad window must not cost the others their reports
-            results = []
-            for w in windows:
-                try:
-                    results.extend(self._quantify([w]))
-                except StictionError as e:
-                    self.core.reject("window_refused", str(e))
-                    results.append(None)
+        results = quantify_isolated(self._quantify, [w for w, _ in due], self.core.reject)
         put_kw = {
             "encoding": self._zenoh.Encoding.APPLICATION_JSON,
             "congestion_control": self._zenoh.CongestionControl.BLOCK,
