@@ -22,6 +22,10 @@ CATALOGUE: dict[str, tuple[str, ...]] = {
     "process_type": ("time_constant_s",),
 }
 """Cause name -> its parameters, as named in the diagnose catalogue."""
+OSC_SHAPES = ("sine", "square", "triangle")
+OSC_FILTER_SHARE = 0.1
+"""A square or triangle load passes a first-order lag of this share of its period (as
+``sim.two_parameter``'s square load does): an upstream loop's cycle smoothed by the line between."""
 
 
 @dataclass(frozen=True)
@@ -40,14 +44,21 @@ class Extensions:
     """Process gain over its nominal value."""
     osc_period_s: float = 0.0
     osc_amplitude_pct: float = 0.0
-    """An external sinusoidal load on the process input, percent of span."""
+    """An external oscillating load on the process input, percent of span (its peak)."""
+    osc_shape: str = "sine"
+    """That load's shape (``OSC_SHAPES``): a sine, or a square or triangle wave through a first-order lag of
+    ``OSC_FILTER_SHARE`` of its period, the cycle an upstream loop's sticky valve sends down the line.  The
+    diagnose catalogue fits the sine; the shape is the simulator's, for the look-alikes a detector must
+    leave alone."""
     time_constant_s: float | None = None
     """Self-regulating process of this time constant in place of the integrating one."""
 
     def __post_init__(self):
+        if self.osc_shape not in OSC_SHAPES:
+            raise ValueError(f"extension osc_shape {self.osc_shape!r}: one of {', '.join(OSC_SHAPES)}")
         for f in fields(self):
             value = getattr(self, f.name)
-            if value is None:
+            if value is None or f.name == "osc_shape":
                 continue
             if not np.isfinite(value):
                 raise ValueError(f"extension {f.name} must be finite, got {value}")
@@ -56,8 +67,10 @@ class Extensions:
                 raise ValueError(f"extension {f.name} out of range: {value}")
         if (self.osc_period_s > 0) != (self.osc_amplitude_pct > 0):
             raise ValueError("external oscillation needs both osc_period_s and osc_amplitude_pct > 0")
+        if self.osc_shape != "sine" and self.osc_period_s == 0:
+            raise ValueError(f"extension osc_shape {self.osc_shape!r} needs an external oscillation (osc_period_s)")
 
-    def active(self) -> dict[str, float]:
+    def active(self) -> dict[str, float | str]:
         """The parameters that differ from the canonical loop."""
         default = Extensions()
         return {k: v for k, v in asdict(self).items() if v != getattr(default, k)}

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from stiction.sim.disturbance import Disturbance
@@ -119,20 +121,21 @@ DRAWS = {"catalogue": EFFECT_RANGES, "wide": WIDE_EFFECT_RANGES}
 
 
 HEALTHY_LOAD = WIDE_EFFECT_RANGES["external_oscillation"]
-"""The external sine load of ``healthy_loops``: the wide draws' external oscillation."""
+"""The external load of ``healthy_loops``: the wide draws' external oscillation."""
 
 
-def healthy_loops(n: int, seed: int, noisy: bool = True) -> list[LoopSpec]:
-    """The canonical loop with a healthy valve (fs = fd = 0) that still cycles: an external sine load at the
-    process input (period and amplitude log-uniform over ``HEALTHY_LOAD``'s ranges)
+def healthy_loops(n: int, seed: int, noisy: bool = True, shapes: Sequence[str] = ("sine",)) -> list[LoopSpec]:
+    """The canonical loop with a healthy valve (fs = fd = 0) that still cycles: an external load at the
+    process input (period and amplitude log-uniform over ``HEALTHY_LOAD``'s ranges), the loops taking
+    ``shapes`` in turn (``sim.extensions.OSC_SHAPES``; the draws are the same whatever the shapes),
     under the thesis's disturbances (``random_disturbance``; none where not ``noisy``).  Without the load a
     healthy canonical loop is still: the thesis's disturbances are sized on the clean signal's RMS, then zero."""
     rng = np.random.default_rng(seed)
     specs = []
-    for _ in range(n):
+    for i in range(n):
         period = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD["osc_period_s"]))))
         amplitude = float(np.exp(rng.uniform(*np.log(HEALTHY_LOAD["osc_amplitude_pct"]))))
-        ext = Extensions(osc_period_s=period, osc_amplitude_pct=amplitude)
+        ext = Extensions(osc_period_s=period, osc_amplitude_pct=amplitude, osc_shape=shapes[i % len(shapes)])
         disturbance = random_disturbance(rng) if noisy else None
         specs.append(LoopSpec(0.0, 0.0, disturbance=disturbance, extensions=ext, seed=int(rng.integers(2**31))))
     return specs

@@ -25,7 +25,7 @@ import numpy as np
 
 from stiction.sim.actuator import actuate
 from stiction.sim.disturbance import Disturbance, rms, unit_shape
-from stiction.sim.extensions import Extensions
+from stiction.sim.extensions import OSC_FILTER_SHARE, Extensions
 from stiction.sim.kernel import run_loops
 from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
 from stiction.sim.valve import Friction, pct_to_lbf
@@ -177,12 +177,30 @@ def build_batch(specs: Sequence[LoopSpec], ts_s: float = TS_S) -> Batch:
 
 
 def external_oscillation(specs: Sequence[LoopSpec], t_s: np.ndarray) -> np.ndarray:
+    """[loops, samples] each loop's external load (``Extensions.osc_*``), zero where it has none."""
     w = np.zeros((len(specs), t_s.size))
     for i, s in enumerate(specs):
         e = s.extensions
         if e.osc_period_s > 0:
-            w[i] = e.osc_amplitude_pct * np.sin(2 * np.pi * t_s / e.osc_period_s)
+            w[i] = e.osc_amplitude_pct * load_wave(e.osc_shape, t_s, e.osc_period_s)
     return w
+
+
+def load_wave(shape: str, t_s: np.ndarray, period_s: float) -> np.ndarray:
+    """A unit wave of ``shape`` (``extensions.OSC_SHAPES``); a square or a triangle through a first-order
+    lag of ``OSC_FILTER_SHARE`` of the period, started settled on its first value."""
+    if shape == "sine":
+        return np.sin(2 * np.pi * t_s / period_s)
+    phase = (t_s / period_s) % 1.0
+    raw = np.where(phase < 0.5, 1.0, -1.0) if shape == "square" else 4 * np.abs(phase - 0.5) - 1
+    dt = np.diff(t_s, prepend=t_s[0])
+    keep = np.exp(-dt / (OSC_FILTER_SHARE * period_s))
+    out = np.empty_like(raw)
+    y = raw[0]
+    for k in range(raw.size):
+        y = keep[k] * y + (1 - keep[k]) * raw[k]
+        out[k] = y
+    return out
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from stiction.schemas.errors import InputError
+from stiction.sim.extensions import OSC_SHAPES
 
 log = logging.getLogger(__name__)
 
@@ -42,6 +43,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     ext = p.add_argument_group("extensions (the diagnose catalogue)")
     for name, text in _EXTENSION_HELP.items():
         ext.add_argument("--" + name.replace("_", "-"), type=float, help=text)
+    ext.add_argument(
+        "--osc-shape",
+        choices=OSC_SHAPES,
+        help="shape of that load: sine (default), or a square or triangle through a lag of a tenth of its period",
+    )
     plant = p.add_argument_group("a loop of its own instead of --loop (a plant's flow or level loop)")
     plant.add_argument("--process-gain", type=float, help="process gain [%%/%% static, or %%/s per %% integrating]")
     plant.add_argument(

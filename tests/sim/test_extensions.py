@@ -161,6 +161,28 @@ def test_external_oscillation_shows_at_its_period():
     assert seen > 5 * power_at(base.pv[0], 1 / period)
 
 
+@pytest.mark.parametrize("shape", ["square", "triangle"])
+def test_a_square_or_triangle_load_is_its_wave_through_a_lag_of_a_tenth_of_its_period(shape):
+    from stiction.sim.loop import load_wave
+
+    period, t = 40.0, np.arange(0.0, 400.0, 0.5)
+    wave = load_wave(shape, t, period)
+    phase = (t / period) % 1
+    raw = np.where(phase < 0.5, 1.0, -1.0) if shape == "square" else 4 * np.abs(phase - 0.5) - 1
+    ref, y = np.empty_like(raw), raw[0]  # the lag, sample by sample, by its exact step response
+    for k in range(raw.size):
+        y = raw[k] + (y - raw[k]) * np.exp(-(t[k] - t[k - 1] if k else 0.0) / (0.1 * period))
+        ref[k] = y
+    np.testing.assert_allclose(wave, ref, atol=1e-12)
+    if shape == "square":  # five lags a half period, settled: 2 exp(-5) / (1 + exp(-5)) short of each level
+        ends = np.flatnonzero(np.isclose(phase, 0.5 - 0.5 / period) | np.isclose(phase, 1 - 0.5 / period))
+        np.testing.assert_allclose(np.abs(wave[ends[2:]]), 1 - 2 * np.exp(-5) / (1 + np.exp(-5)), atol=1e-3)
+    with_load = simulate([LoopSpec(0, 0, extensions=Extensions(osc_period_s=period, osc_amplitude_pct=1.0,
+                                                               osc_shape=shape))]).kept()  # fmt: skip
+    sine = simulate([LoopSpec(0, 0, extensions=Extensions(osc_period_s=period, osc_amplitude_pct=1.0))]).kept()
+    assert np.ptp(with_load.pv) > 0.1 and not np.allclose(with_load.pv, sine.pv, atol=1e-3)
+
+
 def test_catalogue_names_match_extension_fields():
     fields = set(Extensions.__dataclass_fields__)
     for cause, params in CATALOGUE.items():
@@ -170,3 +192,9 @@ def test_catalogue_names_match_extension_fields():
         Extensions(dead_time_s=-1)
     with pytest.raises(ValueError, match="both"):
         Extensions(osc_period_s=30)
+    with pytest.raises(ValueError, match="osc_shape 'saw'"):
+        Extensions(osc_period_s=30, osc_amplitude_pct=1, osc_shape="saw")
+    with pytest.raises(ValueError, match="needs an external oscillation"):
+        Extensions(osc_shape="square")
+    assert "osc_shape" not in Extensions(osc_period_s=30, osc_amplitude_pct=1).active()
+    assert Extensions(osc_period_s=30, osc_amplitude_pct=1, osc_shape="square").causes() == ["external_oscillation"]
