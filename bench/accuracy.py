@@ -18,6 +18,7 @@ from stiction.bench.baselines.ellipse import apparent_stiction
 from stiction.bench.baselines.hammerstein import hammerstein_search
 from stiction.quantify.features import thesis_window
 from stiction.quantify.pipeline import Quantifier, Window
+from stiction.sim.extensions import OSC_SHAPES
 from stiction.sim.grid import case_specs, healthy_loops, random_loops, training_specs
 from stiction.sim.loop import simulate
 
@@ -90,13 +91,15 @@ def _timed(fn):
 
 def healthy_called(quantifier: Quantifier, n: int) -> dict:
     """The other side of "called sticky": ``n`` canonical loops with a healthy valve that cycle under an
-    external sine load (``sim.grid.healthy_loops``), declared and not: the share called sticky (false alarms)."""
-    specs = healthy_loops(n, HEALTHY_SEED)
-    r = simulate(specs).kept()
+    external load (``sim.grid.healthy_loops``), declared and not: the share called sticky (false alarms), for
+    the sine load and, the same loops drawn again, for each other shape (``sim.extensions.OSC_SHAPES``: an
+    upstream loop's sticky valve sends a square or a triangle)."""
     out = {"n": n}
-    for key, process in (("declared", "level"), ("undeclared", None)):
-        reports = quantifier.quantify([Window(f"healthy-{i}", r.op[i], r.pv[i], process=process) for i in range(n)])
-        out[key] = _called(reports)
+    for shape in OSC_SHAPES:
+        r = simulate(healthy_loops(n, HEALTHY_SEED, shapes=(shape,))).kept()
+        for key, process in (("declared", "level"), ("undeclared", None)):
+            reports = quantifier.quantify([Window(f"healthy-{i}", r.op[i], r.pv[i], process=process) for i in range(n)])
+            out[key if shape == "sine" else f"{key}_{shape}"] = _called(reports)
     return out
 
 
@@ -196,8 +199,12 @@ def print_table(figures: dict) -> None:
     print(f"{'thesis (reported)':55s}{0.65:>9.2f} pp{'':>11s}{1.85:>9.2f} pp")
     h = figures["healthy_called_sticky"]
     print(
-        f"false alarms: {h['n']} canonical loops with a healthy valve cycling under an external sine load called "
-        f"sticky {100 * h['declared']:.1f} % declared, {100 * h['undeclared']:.1f} % without flags"
+        f"false alarms: {h['n']} canonical loops with a healthy valve cycling under an external load called sticky, "
+        "declared / without flags: "
+        + "; ".join(
+            f"{shape} {100 * h[f'declared{s}']:.1f} / {100 * h[f'undeclared{s}']:.1f} %"
+            for shape, s in ((shape, "" if shape == "sine" else f"_{shape}") for shape in OSC_SHAPES)
+        )
     )
     found = {s: figures["methods"]["b_no_flags"][s]["identified"] for s in sets}
     cells = ", ".join(f"{s} {found[s]} of {n[s]}" for s in sets)

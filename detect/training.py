@@ -18,6 +18,7 @@ import numpy as np
 
 from stiction.detect.features import NAMES, evidence, evidence_rows
 from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
+from stiction.sim.extensions import OSC_SHAPES
 from stiction.sim.grid import healthy_loops, random_loops
 from stiction.sim.loop import simulate
 from stiction.sim.plant_families import FAMILIES, family_loops, simulate_families, stable
@@ -115,12 +116,15 @@ def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMIL
 
 def canonical_set(n_per_class: int, seed: int) -> tuple[np.ndarray, list[str]]:
     """Feature vectors and classes of the canonical level loop: ``n_per_class`` sticky valves
-    (``sim.grid.random_loops``) and as many healthy valves under an external sine load
-    (``sim.grid.healthy_loops``), three quarters under the thesis's disturbances (seeds ``seed``, ``seed + 1``)
+    (``sim.grid.random_loops``) and as many healthy valves under an external load, a sine, a filtered
+    square or a filtered triangle in turn (``sim.grid.healthy_loops``: an upstream loop's sticky valve
+    sends the latter two), three quarters under the thesis's disturbances (seeds ``seed``, ``seed + 1``)
     and a quarter noise-free (``seed + 2``, ``seed + 3``), as the thesis's C1-C10 are."""
     clean = n_per_class // 4
     sticky = random_loops(n_per_class - clean, seed) + random_loops(clean, seed + 2, noisy=False)
-    healthy = healthy_loops(n_per_class - clean, seed + 1) + healthy_loops(clean, seed + 3, noisy=False)
+    healthy = healthy_loops(n_per_class - clean, seed + 1, shapes=OSC_SHAPES) + healthy_loops(
+        clean, seed + 3, noisy=False, shapes=OSC_SHAPES
+    )
     specs = sticky + healthy
     run = simulate(specs).kept()
     x = np.nan_to_num(np.array([e.vector for e in evidence_rows(run.op, run.pv, 1.0, list(run.sp))]))

@@ -43,17 +43,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
-def parse_extensions(items: list[str]) -> dict[str, float]:
+def parse_extensions(items: list[str]) -> dict[str, float | str]:
     """``NAME=VALUE`` pairs as the simulator's extensions, checked against its catalogue."""
     from stiction.sim.extensions import Extensions
 
     known = {f.name for f in fields(Extensions)}
-    out: dict[str, float] = {}
+    out: dict[str, float | str] = {}
     for item in items:
         name, sep, value = item.partition("=")
         name = name.strip().replace("-", "_")
         if not sep or name not in known:
             raise InputError(f"--extension {item!r}: expected NAME=VALUE with NAME one of {', '.join(sorted(known))}")
+        if name == "osc_shape":  # the one extension that is a name, not a number
+            out[name] = value.strip()
+            continue
         try:
             out[name] = float(value)
         except ValueError:
@@ -106,8 +109,9 @@ def train_detector(args: argparse.Namespace) -> int:
         f"{args.seed + training.SIM_SEED + training.PLANT_SEED_OFFSET}, the cycle model only), sticky where "
         "the valve's stem slipped in the window, and "
         f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free); the canonical model "
-        f"on {training.CANONICAL_PER_CLASS} sticky canonical loops and as many healthy ones under an external sine "
-        f"load (seeds {canonical_seed}-{canonical_seed + 3}, a quarter noise-free)"
+        f"on {training.CANONICAL_PER_CLASS} sticky canonical loops and as many healthy ones under an external "
+        f"load, a sine, filtered square or filtered triangle in turn (seeds {canonical_seed}-{canonical_seed + 3}, "
+        "a quarter noise-free)"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
     canonical = training.canonical_set(training.CANONICAL_PER_CLASS, canonical_seed)
