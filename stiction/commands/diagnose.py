@@ -136,6 +136,8 @@ def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:
                 yield path, export, _diagnose(path, export, max_causes)
             except StictionError as e:  # one bad file never stops the others
                 yield path, export, e
+            except Exception as e:  # nor a fault of ours in one
+                yield path, export, exports.internal_error(e)
         return
     from stiction.quantify.identified import sizing_pool  # spawned workers, one BLAS thread each
 
@@ -145,6 +147,8 @@ def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:
             return path, export, future.result()
         except StictionError as e:
             return path, export, e
+        except Exception as e:
+            return path, export, exports.internal_error(e)
 
     pending: deque = deque()
     with sizing_pool(jobs) as pool:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 from collections.abc import Iterator
 from concurrent.futures import Future
@@ -14,6 +15,8 @@ import numpy as np
 
 from stiction.commands import exports
 from stiction.schemas.errors import StictionError
+
+log = logging.getLogger(__name__)
 
 FIELDS = ("op", "pv", "t", "sp", "mode")
 
@@ -177,6 +180,10 @@ def quantified(
                 result = quantifier.results([window], details=details)[0]
             except StictionError as e:  # one bad file never stops the others
                 failed.append(exports.report_error(command, path, e))
+                continue
+            except Exception as e:  # nor does a fault of ours in one: named, counted, and the others go on
+                log.debug("quantifying %s failed", path, exc_info=True)
+                failed.append(exports.report_error(command, path, exports.internal_error(e)))
                 continue
             pending.append(_Item(path, export, window, result))
             if len(pending) >= CHUNK:

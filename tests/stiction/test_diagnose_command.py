@@ -69,6 +69,23 @@ def test_bad_files_are_named_in_one_line_and_the_others_answered(loops):
     assert json.loads(done.stdout)["loop_id"] == "dt_no_mv"
 
 
+def test_a_fault_of_ours_in_one_file_is_named_and_the_others_answered(loops, capsys, monkeypatch):
+    from stiction.commands import diagnose
+
+    real = diagnose._diagnose
+
+    def failing_on_dt(path, export, max_causes):
+        if path.stem == "dt":
+            raise IndexError("index 5 is out of bounds")
+        return real(path, export, max_causes)
+
+    monkeypatch.setattr(diagnose, "_diagnose", failing_on_dt)
+    assert main(["diagnose", "--json", "--jobs", "1", str(loops / "dt.csv"), str(loops / "dt_no_mv.csv")]) == 2
+    out, err = capsys.readouterr()
+    assert [json.loads(line)["loop_id"] for line in out.strip().splitlines()] == ["dt_no_mv"]
+    assert "dt.csv: internal error (IndexError: index 5 is out of bounds)" in err and "Traceback" not in err
+
+
 def test_a_long_run_says_where_it_is_on_stderr_and_the_reports_stay_on_stdout(loops, capsys, monkeypatch):
     from stiction.commands import diagnose as command
 

@@ -39,6 +39,23 @@ def test_bad_file_is_named_and_the_others_still_reported(loops):
     assert json.loads(done.stdout)["loop_id"] == "a"
 
 
+def test_a_fault_of_ours_in_one_file_is_named_and_the_others_still_reported(loops, capsys, monkeypatch):
+    from stiction.quantify.pipeline import Quantifier
+
+    real = Quantifier.results
+
+    def failing_on_n1(self, windows, **kw):
+        if windows[0].loop_id == "n1":
+            raise ValueError("zero-size array to reduction operation maximum")
+        return real(self, windows, **kw)
+
+    monkeypatch.setattr(Quantifier, "results", failing_on_n1)
+    assert main(["quantify", "--json", str(loops / "n1.csv"), str(loops / "a.csv")]) == 2
+    out, err = capsys.readouterr()
+    assert [json.loads(line)["loop_id"] for line in out.strip().splitlines()] == ["a"]
+    assert "n1.csv: internal error (ValueError: zero-size array" in err and "Traceback" not in err
+
+
 def test_readable_summary_names_the_process_it_identified(loops, capsys):
     assert main(["quantify", str(loops / "a.csv")]) == 0
     out = capsys.readouterr().out
