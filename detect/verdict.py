@@ -261,6 +261,13 @@ def _stuck_valve(detector: Detector, ev: Evidence) -> str | None:
     return "stuck valve: " + "; ".join(said) + " (the controller winding up on a valve that does not move)"
 
 
+def short_of(p: float, threshold: float) -> str:
+    """``p`` to two decimals, rounded down where rounding would reach ``threshold``: a report that says
+    0.50 is short of 0.5 reads as a contradiction."""
+    text = f"{p:.2f}"
+    return f"{np.floor(p * 100) / 100:.2f}" if p < threshold <= float(text) else text
+
+
 def decide(detector: Detector, ev: Evidence, blocking_problems: list[str], canonical: bool = False) -> Verdict:
     """The verdict for one window: data problems first, then the stiction probability, then whether it
     oscillates (``canonical``: the loop is the canonical level loop, declared or recognised)."""
@@ -274,8 +281,8 @@ def decide(detector: Detector, ev: Evidence, blocking_problems: list[str], canon
         reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "")
         return Verdict("stiction", p, "stiction", reason, stuck)
     leans = (
-        f"; stiction probability {p:.2f}, short of the {STICTION_AT} a stiction verdict needs: the data lean "
-        "to stiction but do not settle it"
+        f"; stiction probability {short_of(p, STICTION_AT)}, short of the {STICTION_AT} a stiction verdict needs: "
+        "the data lean to stiction but do not settle it"
         if p >= LEANS_AT
         else ""
     )

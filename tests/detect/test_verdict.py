@@ -233,3 +233,11 @@ def test_a_sticky_limit_cycle_is_called_whatever_the_historian_sampling(detector
             cycles += 1
             assert v_fast.verdict == "stiction", (loop, v_slow.stiction_probability, v_fast.stiction_probability)
     assert cycles >= 4  # the draw holds limit cycles at both rates
+
+
+def test_a_probability_short_of_the_threshold_never_reads_as_the_threshold():
+    from stiction.detect.verdict import STICTION_AT, short_of
+
+    assert short_of(STICTION_AT - 4e-4, STICTION_AT) == f"{STICTION_AT - 0.01:.2f}"
+    assert short_of(0.423, STICTION_AT) == "0.42" and short_of(0.4249, STICTION_AT) == "0.42"
+    assert short_of(0.426, STICTION_AT) == "0.43"  # rounding up below the threshold is still honest
