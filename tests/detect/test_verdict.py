@@ -5,7 +5,7 @@ import pytest
 
 from stiction.detect.features import evidence
 from stiction.detect.training import SIM_SEED
-from stiction.detect.verdict import STICTION_AT, Detector, decide, fit_logistic
+from stiction.detect.verdict import STICTION_AT, Detector, decide, fit_logistic, short_of
 from stiction.sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
 
 
@@ -236,8 +236,6 @@ def test_a_sticky_limit_cycle_is_called_whatever_the_historian_sampling(detector
 
 
 def test_a_probability_short_of_the_threshold_never_reads_as_the_threshold():
-    from stiction.detect.verdict import STICTION_AT, short_of
-
     assert short_of(STICTION_AT - 4e-4, STICTION_AT) == f"{STICTION_AT - 0.01:.2f}"
     assert short_of(0.423, STICTION_AT) == "0.42" and short_of(0.4249, STICTION_AT) == "0.42"
     assert short_of(0.426, STICTION_AT) == "0.43"  # rounding up below the threshold is still honest
