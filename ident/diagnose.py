@@ -37,7 +37,7 @@ from stiction.ident.cause_fit import (
     told_lag_s,
     widened,
 )
-from stiction.ident.friction import friction
+from stiction.ident.friction import Friction, friction
 from stiction.ident.models import (
     APPLY,
     MARGIN,
@@ -51,6 +51,7 @@ from stiction.ident.models import (
 )
 from stiction.ident.record import Record
 from stiction.ident.valve_model import Hypothesis
+from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN
 
 SCREEN_BLIND = ("dead_time",)
 """Causes fitted in full whatever their screening says: a dead time's first-pass fit reads the slips where the
@@ -169,16 +170,38 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
         candidates["quantization"] = Candidate(
             "quantization", {} if q is None else {"quantum_pct": q}, None, None, None, note=note
         )
+    read = widened(friction(chosen.fit, record), chosen.spread)
+    played = [] if chosen.hypothesis.linear_valve else deadband_tie(read)
     return Diagnosis(
-        base,
-        chosen,
-        candidates,
-        steps,
-        friction(base.fit, record),
-        widened(friction(chosen.fit, record), chosen.spread),
-        stiction_delta,
-        ties=ties(steps, chosen, record),
-    )
+        base, chosen, candidates, steps, friction(base.fit, record), read, stiction_delta,
+        ties=ties(steps, chosen, record) + played,
+    )  # fmt: skip
+
+
+DEADBAND_WIDENS_PCT = PCT_OF_500LBF_PER_PCT_OF_SPAN / 2
+"""A deadband of width d (% of OP) in front of a sticky valve makes fs and fd each this much higher per % of
+it (% of 500 lbf): S is d wider and J stays (``tests/ident/test_diagnose.py`` shows it exact)."""
+
+
+def deadband_tie(read: Friction) -> list[Tie]:
+    """A sticky valve's reading holds any deadband in front of it: the band read could be a narrower band
+    behind play of up to S - J (fd down to zero), two standard errors of fd included.  PV is the same to the
+    last digit either way, so the tie's criterion difference is 0."""
+    if not (np.isfinite(read.fd_pct) and np.isfinite(read.s_pct)):
+        return []
+    fd_se = read.fd_se_pct if np.isfinite(read.fd_se_pct) else 0.0
+    widest = max(0.0, (read.fd_pct + 2 * fd_se) / DEADBAND_WIDENS_PCT)
+    return [
+        Tie(
+            "none",
+            "deadband",
+            0.0,
+            {"deadband_pct_high": widest},
+            f"a deadband of up to {widest:.3g} % of OP in front of a valve with a narrower band explains PV exactly "
+            f"as well: S includes any deadband, J not (fs and fd each {DEADBAND_WIDENS_PCT:.3g} % of 500 lbf "
+            "lower per % of it)",
+        )
+    ]
 
 
 GAIN_SE_COVER = 2.0

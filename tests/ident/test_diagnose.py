@@ -99,6 +99,10 @@ def test_a_deadband_before_a_sticky_valve_is_the_same_valve_with_a_wider_band():
     assert not d.candidates["deadband"].identifiable
     assert d.friction.fs_pct == pytest.approx(fs + widen, abs=1.5)
     assert d.friction.fd_pct == pytest.approx(fd + widen, abs=1.5)
+    # and the report says so: any deadband up to the one that leaves fd at zero explains PV as well
+    (tie,) = [t for t in d.ties if t.alternative == "deadband"]
+    assert tie.delta_criterion == 0.0 and deadband <= tie.parameters["deadband_pct_high"]
+    assert tie.parameters["deadband_pct_high"] == pytest.approx((fd + widen) / (widen / deadband), rel=0.2)
 
 
 def test_a_quantum_below_the_noise_is_named_from_the_lattice_with_its_step():
