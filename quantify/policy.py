@@ -25,8 +25,12 @@ from stiction.sim.process import LOOPS
 from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct
 
 PHYSICAL_MAX_SE_PCT = 0.25
-SEGMENTED_MAX_SE_PCT = 0.5
-"""Trust for the segmented (noisy-window) reading; chosen on 200 random loops of seed 12345, not the holdout."""
+SEGMENTED_MAX_SE_PCT = 0.75
+"""Trust for the segmented (noisy-window) reading.  0.5 until 2026-11-26, chosen on 200 random loops of seed
+12345; then, on the loops of seeds 881-884 the learned ensemble or the combination spoke for, the segmented
+readings with errors of 0.5-0.75 were off by 0.57 pp (43 loops) where the headline was off by 0.89, and of
+0.75-1.0 by 2.7 against 3.0 (10 loops): trusted to 0.75 those seeds' error with misses counted fell 1.853 ->
+1.840 pp; then ``stiction bench accuracy``: N1-N10 0.50 -> 0.46 pp, the holdout 1.47 -> 1.45 pp."""
 MAX_SLIPS_PER_PERIOD = 12  # more is noise read as slips (slow cycles may slip ~6 times a period)
 BAND_CALLS_FS_PCT = 15.0
 """A level loop whose slips read fs at least this far above zero (fs - 2 standard errors, % of 500 lbf,
