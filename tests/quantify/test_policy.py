@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from stiction.quantify.policy import AGREE_SE, combine
+from stiction.quantify.policy import AGREE_SE, choose, combine
 
 
 def _weighted(a, sa, b, sb):
@@ -30,6 +30,23 @@ def test_readings_that_disagree_or_lack_an_error_are_not_combined():
     assert not combine((40.0, 20.0, 0.6, 0.4), (40.0, 25.0, 1.2, 0.4))[0]  # fd apart
     assert not combine((40.0, 20.0, np.nan, 0.4), (40.0, 20.0, 1.2, 0.4))[0]
     assert not combine((40.0, 20.0, 0.0, 0.4), (40.0, 20.0, 1.2, 0.4))[0]
+
+
+def test_a_number_without_an_uncertainty_is_never_the_headline():
+    nan = float("nan")
+    only_thesis = [
+        ("physical", False, nan, nan, nan, nan),
+        ("combined", False, nan, nan, nan, nan),
+        ("learned", False, nan, nan, nan, nan),
+        ("thesis", True, 42.0, 20.0, nan, nan),
+    ]
+    method, estimate, shown, warnings = choose(only_thesis, 60.0, "stiction", True)
+    assert method == "none" and np.all(np.isnan(estimate))
+    assert shown["thesis"][:2] == (42.0, 20.0)  # its own block still shows it
+    assert any(w.startswith("thesis estimate not given as fs/fd: it has no uncertainty") for w in warnings)
+    with_learned = [only_thesis[0], only_thesis[1], ("learned", True, 40.0, 19.0, 1.0, 0.5), only_thesis[3]]
+    method, estimate, _, warnings = choose(with_learned, 60.0, "stiction", True)
+    assert method == "learned" and estimate[:2] == (40.0, 19.0) and not any("no uncertainty" in w for w in warnings)
 
 
 def test_noisy_level_loops_read_by_both_are_read_closer_than_by_the_network_alone():
