@@ -62,7 +62,10 @@ class LoopTruth(BaseModel):
     valve: str
     seed: int
     disturbance: str | None = Field(description="e.g. 'output, 0.1 gaussian'")
-    extensions: dict[str, float]
+    extensions: dict[str, float | str] = Field(
+        description="the extensions that differ from the canonical loop: numbers, and osc_shape "
+        "(sine, square or triangle) where the external load is not a sine"
+    )
 
 
 class AgentHealth(BaseModel):

@@ -60,3 +60,15 @@ def test_unstaggered_every_loop_sends_in_the_same_instant():
     _, puts = _publish(stagger=False)
     first_tick = np.array([at for at, _, _ in puts[:8]]) - puts[0][0]
     assert first_tick.max() < 0.05
+
+
+def test_a_loop_under_a_square_load_has_a_truth_message_that_says_its_shape():
+    from stiction.schemas.messages import LoopTruth
+    from stiction.sim.extensions import Extensions
+    from stiction.sim.loop import LoopSpec
+    from stiction.sim.publisher import truth_message
+
+    ext = Extensions(osc_period_s=120.0, osc_amplitude_pct=2.0, osc_shape="square")
+    message = truth_message("sq", LoopSpec(0.0, 0.0, extensions=ext))
+    back = LoopTruth.model_validate_json(message.model_dump_json())
+    assert back.extensions == {"osc_period_s": 120.0, "osc_amplitude_pct": 2.0, "osc_shape": "square"}
