@@ -38,7 +38,7 @@ class TrainSettings:
     ensemble: int = 5
     seed: int = 0
     accuracy_seeds: int = 5
-    extensions: dict[str, float] = field(default_factory=dict)
+    extensions: dict[str, float | str] = field(default_factory=dict)
     """Every training loop (and test case) on this extended loop: ``stiction train --extension NAME=VALUE``."""
     # full-batch L-BFGS: the thesis trained in MATLAB, whose default trainer is second-order (Levenberg-Marquardt)
     thesis_fit: FitSettings = field(
