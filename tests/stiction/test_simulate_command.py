@@ -48,6 +48,19 @@ def test_extension_flags_reach_the_loop(tmp_path):
     assert truth["extensions"] == {"dead_time_s": 2.0, "quantum_pct": 0.5}
 
 
+def test_a_square_load_reaches_the_loop_and_its_truth(tmp_path):
+    from stiction.commands.train import parse_extensions
+
+    out = tmp_path / "sq.csv"
+    args = ["simulate", "--fs-pct", "0", "--fd-pct", "0", "--osc-period-s", "120", "--osc-amplitude-pct", "2"]
+    assert main([*args, "--osc-shape", "square", "--out", str(out)]) == 0
+    assert main([*args, "--out", str(tmp_path / "sine.csv")]) == 0
+    truth = json.loads((tmp_path / "sq.truth.json").read_text())
+    assert truth["extensions"]["osc_shape"] == "square" and truth["causes"] == ["external_oscillation"]
+    assert not np.allclose(_read(out)["pv"], _read(tmp_path / "sine.csv")["pv"], atol=1e-3)
+    assert parse_extensions(["osc_period_s=60", "osc_amplitude_pct=1", "osc_shape=triangle"])["osc_shape"] == "triangle"
+
+
 def test_noisy_case_with_seed_is_reproducible(tmp_path):
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
     main(["simulate", "--case", "N5", "--seed", "3", "--out", str(a), "--no-truth"])
@@ -75,6 +88,7 @@ def test_grid_file_holds_the_training_set(tmp_path):
         (["--fs-pct", "20", "--fd-pct", "5", "--disturbance", "sine"], "omega"),
         (["--grid", "--out", "grid.csv"], ".npz"),
         (["--fs-pct", "20", "--fd-pct", "5", "--warmup-s", "3000"], "--warmup-s"),
+        (["--fs-pct", "20", "--fd-pct", "5", "--osc-shape", "square"], "needs an external oscillation"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, expected, tmp_path):
