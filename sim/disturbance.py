@@ -67,3 +67,24 @@ def unit_shape(
 def rms(x: np.ndarray, axis: int = -1) -> np.ndarray:
     """Root mean square after removing the mean."""
     return np.sqrt(np.mean((x - x.mean(axis=axis, keepdims=True)) ** 2, axis=axis))
+
+
+def periodic_wave(shape: str, phase: np.ndarray) -> np.ndarray:
+    """A unit wave of ``phase`` (cycles, in [0, 1)): ``sine``, ``triangle`` (1 at the cycle's start, -1 at its
+    middle) or ``square`` (1 in its first half)."""
+    if shape == "sine":
+        return np.sin(2 * np.pi * phase)
+    if shape == "triangle":
+        return 4 * np.abs(phase - 0.5) - 1
+    if shape == "square":
+        return np.where(phase < 0.5, 1.0, -1.0)
+    raise ValueError(f"wave shape {shape!r}: one of sine, triangle, square")
+
+
+def first_order(x: np.ndarray, keep: float, settled: bool = False) -> np.ndarray:
+    """``x`` through ``y[k] = keep * y[k-1] + (1 - keep) * x[k]``, from rest or (``settled``) from ``x[0]``."""
+    from scipy.signal import lfilter  # here, not at import: the agent loads the simulator's loop, not this
+
+    zi = [keep * x[0]] if settled else [0.0]
+    return lfilter([1 - keep], [1, -keep], x, zi=zi)[0]
+

@@ -24,7 +24,7 @@ from typing import Literal
 import numpy as np
 
 from stiction.sim.actuator import actuate
-from stiction.sim.disturbance import Disturbance, rms, unit_shape
+from stiction.sim.disturbance import Disturbance, first_order, periodic_wave, rms, unit_shape
 from stiction.sim.extensions import OSC_FILTER_SHARE, Extensions
 from stiction.sim.kernel import run_loops
 from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discretise
@@ -187,20 +187,12 @@ def external_oscillation(specs: Sequence[LoopSpec], t_s: np.ndarray) -> np.ndarr
 
 
 def load_wave(shape: str, t_s: np.ndarray, period_s: float) -> np.ndarray:
-    """A unit wave of ``shape`` (``extensions.OSC_SHAPES``); a square or a triangle through a first-order
-    lag of ``OSC_FILTER_SHARE`` of the period, started settled on its first value."""
+    """A unit wave of ``shape`` (``extensions.OSC_SHAPES``) at the evenly spaced times ``t_s``; a square or a
+    triangle through a first-order lag of ``OSC_FILTER_SHARE`` of the period, started settled on its first value."""
     if shape == "sine":
         return np.sin(2 * np.pi * t_s / period_s)
-    phase = (t_s / period_s) % 1.0
-    raw = np.where(phase < 0.5, 1.0, -1.0) if shape == "square" else 4 * np.abs(phase - 0.5) - 1
-    dt = np.diff(t_s, prepend=t_s[0])
-    keep = np.exp(-dt / (OSC_FILTER_SHARE * period_s))
-    out = np.empty_like(raw)
-    y = raw[0]
-    for k in range(raw.size):
-        y = keep[k] * y + (1 - keep[k]) * raw[k]
-        out[k] = y
-    return out
+    keep = np.exp(-(t_s[1] - t_s[0]) / (OSC_FILTER_SHARE * period_s)) if t_s.size > 1 else 0.0
+    return first_order(periodic_wave(shape, (t_s / period_s) % 1.0), keep, settled=True)
 
 
 @dataclass(frozen=True)

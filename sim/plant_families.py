@@ -39,7 +39,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from stiction.sim.disturbance import unit_shape
+from stiction.sim.disturbance import first_order, periodic_wave, unit_shape
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, build_batch, run_batch
 from stiction.sim.plant_loops import by_sample_interval
@@ -224,17 +224,9 @@ def _load(loop: FamilyLoop, t_s: np.ndarray, rng: np.random.Generator) -> np.nda
     """The load on the process input: the family's external cycle, or a slow brown wander."""
     if loop.load_shape is None:
         return loop.load_pct * unit_shape("brownian", t_s.size, 1.0, rng)
-    phase = (t_s / loop.load_period_s + rng.random()) % 1.0
-    wave = {
-        "sine": np.sin(2 * np.pi * phase),
-        "triangle": 4 * np.abs(phase - 0.5) - 1,
-        "square": np.where(phase < 0.5, 1.0, -1.0),
-    }[loop.load_shape]
+    wave = periodic_wave(loop.load_shape, (t_s / loop.load_period_s + rng.random()) % 1.0)
     if loop.load_filter_s > 0:  # first order, the upstream process's lag
-        a = np.exp(-1.0 / loop.load_filter_s)
-        from scipy.signal import lfilter
-
-        wave = lfilter([1 - a], [1, -a], wave)
+        wave = first_order(wave, np.exp(-1.0 / loop.load_filter_s))
     return loop.load_pct * wave / max(np.max(np.abs(wave)), 1e-9)
 
 
