@@ -26,7 +26,7 @@ from stiction.quantify.assembly import assemble, needs_sizing
 from stiction.quantify.identified import lower_priority, size_in_worker, sizing_pool
 from stiction.quantify.pipeline import Quantifier, warm_up
 from stiction.schemas import keys
-from stiction.schemas.errors import StictionError
+from stiction.schemas.errors import StictionError, as_stiction_error
 from stiction.schemas.messages import AgentHealth, LoopTruth
 from stiction.schemas.report import StictionReport
 
@@ -86,12 +86,11 @@ def quantify_isolated(quantify, windows: list, reject) -> list:
     for w in windows:
         try:
             results.extend(quantify([w]))
-        except StictionError as e:
-            reject("window_refused", str(e))
-            results.append(None)
         except Exception as e:
-            log.exception("quantifying %s failed", w.loop_id)
-            reject("window_refused", f"{w.loop_id}: internal error ({e.__class__.__name__}: {e})")
+            if not isinstance(e, StictionError):
+                log.exception("quantifying %s failed", w.loop_id)
+            said = str(as_stiction_error(e))
+            reject("window_refused", said if w.loop_id in said else f"{w.loop_id}: {said}")
             results.append(None)
     return results
 

@@ -19,7 +19,7 @@ from itertools import chain
 from pathlib import Path
 
 from stiction.commands import exports
-from stiction.schemas.errors import StictionError
+from stiction.schemas.errors import StictionError, as_stiction_error
 from stiction.status import Every
 
 NONE_NAMED = "none: the canonical loop explains the data within its noise"
@@ -134,10 +134,8 @@ def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:
         for path, export in chain(ahead, items):
             try:
                 yield path, export, _diagnose(path, export, max_causes)
-            except StictionError as e:  # one bad file never stops the others
-                yield path, export, e
-            except Exception as e:  # nor a fault of ours in one
-                yield path, export, exports.internal_error(e)
+            except Exception as e:  # one bad file (or a fault of ours in one) never stops the others
+                yield path, export, as_stiction_error(e)
         return
     from stiction.quantify.identified import sizing_pool  # spawned workers, one BLAS thread each
 
@@ -145,10 +143,8 @@ def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:
         path, export, future = entry
         try:
             return path, export, future.result()
-        except StictionError as e:
-            return path, export, e
         except Exception as e:
-            return path, export, exports.internal_error(e)
+            return path, export, as_stiction_error(e)
 
     pending: deque = deque()
     with sizing_pool(jobs) as pool:

@@ -79,11 +79,6 @@ def windows(
             failed.append(report_error(command, path, e))
 
 
-def internal_error(e: Exception) -> StictionError:
-    """A fault of ours met in one file, as the one line that file's error is (the others go on)."""
-    return StictionError(f"internal error ({e.__class__.__name__}: {e}); please report it with this file")
-
-
 def report_error(command: str, path: Path, error: Exception) -> str:
     """Print one line naming the file and what was wrong; return it."""
     message = str(error) if str(path) in str(error) else f"{path}: {error}"

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from stiction.commands import exports
-from stiction.schemas.errors import StictionError
+from stiction.schemas.errors import StictionError, as_stiction_error
 
 log = logging.getLogger(__name__)
 
@@ -178,12 +178,9 @@ def quantified(
                     sp=export.sp,
                 )
                 result = quantifier.results([window], details=details)[0]
-            except StictionError as e:  # one bad file never stops the others
-                failed.append(exports.report_error(command, path, e))
-                continue
-            except Exception as e:  # nor does a fault of ours in one: named, counted, and the others go on
+            except Exception as e:  # one bad file (or a fault of ours in one) never stops the others
                 log.debug("quantifying %s failed", path, exc_info=True)
-                failed.append(exports.report_error(command, path, exports.internal_error(e)))
+                failed.append(exports.report_error(command, path, as_stiction_error(e)))
                 continue
             pending.append(_Item(path, export, window, result))
             if len(pending) >= CHUNK:
