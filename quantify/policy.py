@@ -156,7 +156,7 @@ def choose(candidates, op_range_pct: float, verdict: str, known_process: bool):
     loop only (on simulated plant-like loops their S was 26-47 % off in median, inside S +- 2
     spread in 60-67 %: ``stiction bench sizing``)."""
     method, chosen = "none", (np.nan, np.nan, np.nan, np.nan)
-    shown, warnings, given, unsure = {}, [], {}, []
+    shown, warnings, given, unsure = {}, [], {}, None
     for name, ok, *estimate in candidates:
         given[name] = estimate
         why = impossible(*estimate, op_range_pct) if ok else None
@@ -165,12 +165,12 @@ def choose(candidates, op_range_pct: float, verdict: str, known_process: bool):
         shown[name] = estimate if ok and not why and verdict == "stiction" else None
         if shown[name] is not None and method == "none" and known_process:
             if not np.all(np.isfinite(estimate[2:])):  # a number without its uncertainty speaks only in its block
-                unsure.append(name)
+                unsure = unsure or name
                 continue
             method, chosen = name, tuple(estimate)
     if method == "none" and unsure:
         warnings.append(
-            f"{unsure[0]} estimate not given as fs/fd: it has no uncertainty, and every reading with one was "
+            f"{unsure} estimate not given as fs/fd: it has no uncertainty, and every reading with one was "
             "withheld (its own block still shows it)"
         )
     if method == "combined" and impossible(*given["physical"], op_range_pct) is None:
