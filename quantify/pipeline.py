@@ -196,10 +196,11 @@ class Quantifier:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
             physical_i = (phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i])
             learned_i = (learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1])
-            agree, combined = policy.combine(physical_i, learned_i)
+            can_combine = bool(level[i] and cycle_ok[i])  # both readings ran: elsewhere nothing to weigh
+            agree, combined = policy.combine(physical_i, learned_i) if can_combine else (False, (np.nan,) * 4)
             candidates = [
                 ("physical", physical_ok[i], *physical_i),
-                ("combined", level[i] and cycle_ok[i] and agree, *combined),
+                ("combined", can_combine and agree, *combined),
                 ("learned", cycle_ok[i], *learned_i),
                 ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
             ]
