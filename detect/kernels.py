@@ -189,9 +189,16 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
     which OP ``u`` (median-filtered) ramps, a straight line (R^2 >= ``min_r2``) over at least
     ``op_share`` of its range, while PV's level ``y`` (median-filtered, then averaged over 5
     samples) stays within ``noise_k`` times PV's noise or ``pv_share`` of its own range; and the
-    largest OP travel over such a span (``detect.features``)."""
+    largest OP travel over such a span (``detect.features``).
+
+    PV's noise is its standard deviation read from its steps (robust: a slip is one step of
+    hundreds).  Read from PV's distance to its median-filtered level, as before 2026-11-26, it was
+    0.73 of a white noise's, and a still PV's level spread over more than the bound in half the
+    spans (a measured flow valve stuck for 50 minutes under noise read not stuck).  A window whose
+    PV level ranges over less than 4.4 noises (6 of the old reading's, for white noise) shows no
+    PV signal to stand still against: nothing to read."""
     n = y.size
-    noise = 1.4826 * np.median(np.abs(pv - y)) + 1e-12
+    noise = 1.4826 * np.median(_abs_steps(pv)) / np.sqrt(2.0) + 1e-12
     level = np.empty(n)
     for k in range(n):
         total = 0.0
@@ -200,7 +207,7 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
         level[k] = total / 5.0
     range_pv = np.quantile(level, 0.975) - np.quantile(level, 0.025)  # by selection, not a sort: half the time
     range_op = np.quantile(u, 0.975) - np.quantile(u, 0.025)
-    if range_pv < 6.0 * noise or not range_op > 0:
+    if range_pv < 4.4 * noise or not range_op > 0:
         return 0.0, 0.0
     span = max(n // parts, 10)
     step = max(span // 4, 1)

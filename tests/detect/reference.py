@@ -111,11 +111,11 @@ def still_share(y, pv, u, edge):
 def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
     from scipy.ndimage import uniform_filter1d
 
-    noise = 1.4826 * np.median(np.abs(pv - y)) + 1e-12
+    noise = 1.4826 * np.median(np.abs(np.diff(pv))) / np.sqrt(2) + 1e-12
     level = uniform_filter1d(np.asarray(y, float), 5, mode="nearest")
     range_pv = np.percentile(level, 97.5) - np.percentile(level, 2.5)
     range_op = np.percentile(u, 97.5) - np.percentile(u, 2.5)
-    if range_pv < 6 * noise or not range_op > 0:
+    if range_pv < 4.4 * noise or not range_op > 0:
         return 0.0, 0.0
     span = max(len(y) // parts, 10)
     spans = list(range(0, len(y) - span, max(span // 4, 1)))
