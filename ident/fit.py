@@ -108,21 +108,38 @@ def _batch_fit(
     record: Record, hyp: Hypothesis, regs: np.ndarray, tf: TransferFunction, q: np.ndarray, nominal_gain: float
 ):
     """Least squares of every candidate's regressors [C, 4, N] at once: (rss [C], coef [C, 4]) of ``ROWS``."""
-    x = project_out(record.compared_response(tf, regs).reshape(-1, record.n_fit), q).reshape(regs.shape[0], 4, -1)
+    x = np.ascontiguousarray(record.compared_response(tf, regs).reshape(regs.shape[0], 4, -1))
     y = project_out(record.target[None, :], q)[0]
     rows = solved_rows(hyp)
-    cols = x[:, rows]
-    target = np.broadcast_to(y, (regs.shape[0], y.size)) if hyp.gain_free else y[None, :] - nominal_gain * x[:, 0]
-    gram = np.einsum("cin,cjn->cij", cols, cols)
-    rhs = np.einsum("cin,cn->ci", cols, target)
-    ridge = (1e-9 * np.trace(gram, axis1=1, axis2=2)[:, None, None] + 1e-12) * np.eye(gram.shape[1])
-    solved = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
-    resid = target - np.einsum("ci,cin->cn", solved, cols)
+    q = np.ascontiguousarray(q)
+    xq = (x.reshape(-1, x.shape[-1]) @ q).reshape(x.shape[0], 4, -1)
+    rss, solved = kernels.projected_fits(x, xq, np.ascontiguousarray(q.T), y, np.array(rows, np.int64), hyp.gain_free,
+                                         float(nominal_gain))  # fmt: skip
     coef = np.zeros((regs.shape[0], 4))
     coef[:, rows] = solved
     if not hyp.gain_free:
         coef[:, 0] = nominal_gain
-    return np.einsum("cn,cn->c", resid, resid), coef
+    return rss, coef
+
+
+CHUNK_BYTES = 4_000_000
+"""Candidates are fitted in chunks whose regressors take about this much memory: a long record's batch of a
+thousand candidates was 115 MB of regressors and as much again filtered, fresh pages from the system every
+call (a 3,600-sample diagnosis spent a quarter of its time in the kernel, 1.1 GB peak); chunks of a few
+MB are reused from the heap."""
+
+
+def _fit_sets(record: Record, hyp: Hypothesis, sets: list[Slips], tf: TransferFunction, q: np.ndarray,
+              nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """``_batch_fit`` of every slip set's regressors (``path_regressors_many``), built and fitted in chunks of
+    ``CHUNK_BYTES``: (rss [C], coef [C, 4])."""
+    chunk = max(1, CHUNK_BYTES // (4 * 8 * max(record.n, 1)))
+    out = [
+        _batch_fit(record, hyp, path_regressors_many(sets[i : i + chunk], record.n, record.ts_s, hyp.snapshot), tf,
+                   q, nominal_gain)
+        for i in range(0, len(sets), chunk)
+    ]  # fmt: skip
+    return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
 
 def _walk_parameters(coef: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -200,8 +217,7 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
             shifted = at.copy()
             shifted[i] += d
             sets.append(Slips.from_path(replace(path, slips=shifted), drive))
-        rss = _batch_fit(record, hyp, path_regressors_many(sets, record.n, record.ts_s, hyp.snapshot), tf, q,
-                         nominal_gain)[0]  # fmt: skip
+        rss = _fit_sets(record, hyp, sets, tf, q, nominal_gain)[0]
         best: dict[int, tuple[int, float]] = {}
         for (i, d), r in zip(moves, rss[1:], strict=True):
             if r < rss[0] and (i not in best or r < best[i][1]):
@@ -297,8 +313,7 @@ def _anchored_fit(
         levels = np.concatenate([np.full(grid.size, c[2]) for c in centres])
         for _ in range(WALK_ITERATIONS):
             cands = walk(read, drive, bands, stops, levels, window, read_levels)
-            regs = path_regressors_many(cands, record.n, record.ts_s, hyp.snapshot)
-            rss, coef = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
+            rss, coef = _fit_sets(record, hyp, cands, tf, q, nominal_gain)
             new_stops, new_levels = _walk_parameters(coef, bands)
             ok = np.isfinite(new_stops) & np.isfinite(new_levels)
             stops, levels = np.where(ok, new_stops, stops), np.where(ok, new_levels, levels)
@@ -367,8 +382,7 @@ def _prune_forced(
         if forced.size == 0:
             break
         variants = [slips, *_each_without(slips, forced)]
-        regs = path_regressors_many(variants, record.n, record.ts_s, hyp.snapshot)
-        rss, _ = _batch_fit(record, hyp, regs, tf, q, nominal_gain)
+        rss, _ = _fit_sets(record, hyp, variants, tf, q, nominal_gain)
         ic = criterion(rss, fixed + np.array([v.read.sum() for v in variants]), record.n_fit)
         better = forced[rss[1:] < rss[0]] if harmful_only else forced[ic[1:] < ic[0]]
         if better.size == 0:

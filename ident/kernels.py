@@ -3,7 +3,9 @@ the PI controller's least squares, which the agent runs on every window; the ste
 from a set of slips (``path_regressors``: piece by piece, where numpy's gathers and cumulative sums
 cost a quarter of a diagnosis); the stem's pieces from a segmentation (``path_pieces``: a loop over
 thousands of pieces, a third of a long record's diagnosis); and the process's difference equation
-(``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every command half a second).
+(``iir_rows``: scipy.signal.lfilter's recursion, whose import alone cost every command half a second);
+and the candidates' least squares on projected regressors (``projected_fits``: one candidate's rows in
+cache at a time, where numpy wrote and reread the projected batch).
 
 The first two run sample by sample with a decision at each step, which numpy cannot
 vectorise over time; the third is four columns of one window, where numpy's per-call cost
@@ -351,3 +353,69 @@ def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
                 for row in range(4):
                     out[v, row, k] -= share * (out[v, row, k] - out[v, row, k - 1])
     return out
+
+
+@njit(cache=True, nogil=True)
+def projected_fits(x, xq, q_t, yp, rows, gain_free, nominal_gain):
+    """Every candidate's least squares of ``ident.fit._batch_fit`` without writing its projected batch:
+    ``x`` [C, 4, n] compared (not projected), ``xq`` [C, 4, k] = ``x @ q`` (one BLAS call), ``q_t`` [k, n]
+    the nuisances' orthonormal basis, transposed, ``yp`` [n] the target projected, ``rows`` the regressors
+    solved for.  Per candidate its four rows are projected into a buffer of one candidate's size (in cache),
+    the normal equations (with the ridge of ``_batch_fit``) formed and solved, and the residual summed from
+    that buffer: (rss [C], solved [C, len(rows)]).  numpy wrote the projected batch, a temporary of its size
+    and the residuals, and read them again.  Every loop runs along contiguous samples."""
+    c_count, _, n = x.shape
+    k = q_t.shape[0]
+    r = rows.size
+    rss = np.empty(c_count)
+    solved = np.zeros((c_count, r))
+    buf = np.empty((4, n))
+    target = np.empty(n)
+    gram = np.empty((r, r))
+    rhs = np.empty(r)
+    for c in range(c_count):
+        for i in range(4):
+            row = buf[i]
+            row[:] = x[c, i]
+            for j in range(k):
+                a = xq[c, i, j]
+                qj = q_t[j]
+                for t in range(n):
+                    row[t] -= a * qj[t]
+        if gain_free:
+            target[:] = yp
+        else:
+            b0 = buf[0]
+            for t in range(n):
+                target[t] = yp[t] - nominal_gain * b0[t]
+        trace = 0.0
+        for u in range(r):
+            bu = buf[rows[u]]
+            for w in range(u, r):
+                bw = buf[rows[w]]
+                s = 0.0
+                for t in range(n):
+                    s += bu[t] * bw[t]
+                gram[u, w] = s
+                gram[w, u] = s
+            trace += gram[u, u]
+            s = 0.0
+            for t in range(n):
+                s += bu[t] * target[t]
+            rhs[u] = s
+        if r > 0:
+            ridge = 1e-9 * trace + 1e-12
+            for u in range(r):
+                gram[u, u] += ridge
+            b = np.linalg.solve(gram, rhs)
+            for u in range(r):
+                bu = buf[rows[u]]
+                coef = b[u]
+                for t in range(n):
+                    target[t] -= coef * bu[t]
+                solved[c, u] = coef
+        total = 0.0
+        for t in range(n):
+            total += target[t] * target[t]
+        rss[c] = total
+    return rss, solved
