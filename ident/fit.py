@@ -107,13 +107,17 @@ def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.nda
 def _batch_fit(
     record: Record, hyp: Hypothesis, regs: np.ndarray, tf: TransferFunction, q: np.ndarray, nominal_gain: float
 ):
-    """Least squares of every candidate's regressors [C, 4, N] at once: (rss [C], coef [C, 4]) of ``ROWS``."""
-    x = np.ascontiguousarray(record.compared_response(tf, regs).reshape(regs.shape[0], 4, -1))
-    y = project_out(record.target[None, :], q)[0]
+    """Least squares of every candidate's regressors [C, 4, N] at once: (rss [C], coef [C, 4]) of ``ROWS``.
+    Only the rows the fit reads go through the process: those it solves for, and the drive's, which a fixed
+    gain moves to the target's side (the jump's row is read only at a moving drive)."""
     rows = solved_rows(hyp)
+    used = sorted(set(rows) | {0})
+    x = record.compared_response(tf, regs[:, used]).reshape(regs.shape[0], len(used), -1)
+    y = project_out(record.target[None, :], q)[0]
     q = np.ascontiguousarray(q)
-    xq = (x.reshape(-1, x.shape[-1]) @ q).reshape(x.shape[0], 4, -1)
-    rss, solved = kernels.projected_fits(x, xq, np.ascontiguousarray(q.T), y, np.array(rows, np.int64), hyp.gain_free,
+    xq = (x.reshape(-1, x.shape[-1]) @ q).reshape(x.shape[0], len(used), -1)
+    at = np.array([used.index(i) for i in rows], np.int64)
+    rss, solved = kernels.projected_fits(np.ascontiguousarray(x), xq, np.ascontiguousarray(q.T), y, at, hyp.gain_free,
                                          float(nominal_gain))  # fmt: skip
     coef = np.zeros((regs.shape[0], 4))
     coef[:, rows] = solved

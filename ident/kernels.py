@@ -358,23 +358,24 @@ def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
 @njit(cache=True, nogil=True)
 def projected_fits(x, xq, q_t, yp, rows, gain_free, nominal_gain):
     """Every candidate's least squares of ``ident.fit._batch_fit`` without writing its projected batch:
-    ``x`` [C, 4, n] compared (not projected), ``xq`` [C, 4, k] = ``x @ q`` (one BLAS call), ``q_t`` [k, n]
-    the nuisances' orthonormal basis, transposed, ``yp`` [n] the target projected, ``rows`` the regressors
-    solved for.  Per candidate its four rows are projected into a buffer of one candidate's size (in cache),
-    the normal equations (with the ridge of ``_batch_fit``) formed and solved, and the residual summed from
-    that buffer: (rss [C], solved [C, len(rows)]).  numpy wrote the projected batch, a temporary of its size
-    and the residuals, and read them again.  Every loop runs along contiguous samples."""
-    c_count, _, n = x.shape
+    ``x`` [C, m, n] a candidate's regressors compared (not projected), the first the one a fixed gain moves
+    to the target's side, ``xq`` [C, m, k] = ``x @ q`` (one BLAS call), ``q_t`` [k, n] the nuisances'
+    orthonormal basis, transposed, ``yp`` [n] the target projected, ``rows`` those of the m solved for.
+    Per candidate its rows are projected into a buffer of one candidate's size (in cache), the normal
+    equations (with the ridge of ``_batch_fit``) formed and solved, and the residual summed from that buffer:
+    (rss [C], solved [C, len(rows)]).  numpy wrote the projected batch, a temporary of its size and the
+    residuals, and read them again.  Every loop runs along contiguous samples."""
+    c_count, m, n = x.shape
     k = q_t.shape[0]
     r = rows.size
     rss = np.empty(c_count)
     solved = np.zeros((c_count, r))
-    buf = np.empty((4, n))
+    buf = np.empty((m, n))
     target = np.empty(n)
     gram = np.empty((r, r))
     rhs = np.empty(r)
     for c in range(c_count):
-        for i in range(4):
+        for i in range(m):
             row = buf[i]
             row[:] = x[c, i]
             for j in range(k):
