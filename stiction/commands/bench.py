@@ -111,6 +111,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="also retrain the models on each cause into DIR (reused if there) and quantify the same loops with both",
     )
+    d.add_argument(
+        "--samples",
+        type=int,
+        default=None,
+        help="each record's length in samples (default 1000; stiction diagnose reads up to 3600 of an export): "
+        "the same loops simulated longer, for the time a long record takes",
+    )
     d.add_argument("--json", action="store_true")
     m = sub.add_parser("measured", help="diagnose every export of the measured folders beside their labels")
     m.add_argument("folders", nargs="+", type=Path, metavar="DIR", help="folders of exports (or single files)")
@@ -226,12 +233,15 @@ def _diagnose(args) -> None:
         raise InputError(f"--causes {' '.join(unknown)}: expected some of {', '.join(EFFECT_RANGES)}")
     if args.loops < 1 or args.workers < 1:
         raise InputError("--loops and --workers must be at least 1")
+    if args.samples is not None and args.samples < 200:
+        raise InputError(f"--samples {args.samples}: at least 200 (a record a diagnosis can read)")
     text = not args.json
     seed = diagnose.SEED if args.seed is None else args.seed
     if text:
-        diagnose.print_header(args.loops, args.draws, seed)
+        diagnose.print_header(args.loops, args.draws, seed, args.samples)
     progress = diagnose.print_row if text else None
-    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=progress, draws=args.draws, seed=seed)
+    figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=progress, draws=args.draws, seed=seed,
+                                      samples=args.samples)  # fmt: skip
     if args.retrain:
         if text:
             diagnose.print_retrained_header()

@@ -47,3 +47,21 @@ def test_the_bench_draws_other_loops_from_another_seed(capsys):
     assert main(argv) in (0, None)
     figures = json.loads(capsys.readouterr().out)
     assert figures["seed"] == 7 and figures["per_cause"]["none"]["n"] == 1
+
+
+def test_the_bench_records_each_loop_over_the_samples_asked_and_refuses_too_few(capsys):
+    """``--samples`` simulates the same loops longer (the time a long record takes, `stiction diagnose` reads up to
+    3,600 samples of an export); a record too short to diagnose is refused in one line."""
+    import json
+
+    from stiction.bench.diagnose import _one
+    from stiction.cli import main
+    from stiction.sim.grid import effect_loops
+
+    spec = effect_loops("none", 1, 11)[0]
+    assert _one(spec)["samples"] == 1000 and _one(spec, samples=400)["samples"] == 400
+    argv = ["bench", "diagnose", "--loops", "1", "--causes", "none", "--workers", "1", "--samples", "400", "--json"]
+    assert main(argv) in (0, None)
+    assert json.loads(capsys.readouterr().out)["samples"] == 400
+    assert main(argv[:-3] + ["--samples", "100"]) not in (0, None)
+    assert "--samples 100" in capsys.readouterr().err
