@@ -27,12 +27,13 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from stiction.ident import kernels
+from stiction.ident import delta_fits, kernels
 from stiction.ident.objective import nuisance_basis, project_out
 from stiction.ident.process import TransferFunction, transfer_function
 from stiction.ident.record import Record, process_sign
 from stiction.ident.stem import StemPath
 from stiction.ident.valve_model import (
+    SLIP_S,
     Drive,
     Hypothesis,
     Slips,
@@ -40,6 +41,7 @@ from stiction.ident.valve_model import (
     drive_of,
     linear_fit,
     own_params,
+    packed_slips,
     path_regressors,
     path_regressors_many,
     solve,
@@ -146,6 +148,24 @@ def _fit_sets(record: Record, hyp: Hypothesis, sets: list[Slips], tf: TransferFu
     return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
 
+def _fit_near(record: Record, hyp: Hypothesis, sets: list[Slips], tf: TransferFunction, q: np.ndarray,
+              nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """``_fit_sets`` of slip sets that each differ from ``sets[0]`` in a few places (a slip moved or dropped):
+    from the base's fit and each one's steps (``ident.delta_fits``), without filtering them; those that
+    differ in many places filtered as ``_fit_sets`` does."""
+    n, rows = record.n, solved_rows(hyp)
+    near = delta_fits.NearBase(record, tf, q, path_regressors_many(sets[:1], n, record.ts_s, hyp.snapshot)[0])
+    rss, coef = np.empty(len(sets)), np.zeros((len(sets), 4))
+    rss[:], coef[:, rows] = near.fits(packed_slips(sets, n), SLIP_S / record.ts_s, hyp.snapshot,
+                                      np.array(rows, np.int64), hyp.gain_free, nominal_gain)  # fmt: skip
+    far = np.flatnonzero(np.isnan(rss))
+    if far.size:
+        rss[far], coef[far] = _fit_sets(record, hyp, [sets[i] for i in far], tf, q, nominal_gain)
+    if not hyp.gain_free:
+        coef[:, 0] = nominal_gain
+    return rss, coef
+
+
 def _walk_parameters(coef: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(stop, level0) of each candidate from its coefficients [C, 4]; stop = S - J where no held slip reads it."""
     g = np.where(coef[:, 0] == 0, np.nan, coef[:, 0])
@@ -221,7 +241,7 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
             shifted = at.copy()
             shifted[i] += d
             sets.append(Slips.from_path(replace(path, slips=shifted), drive))
-        rss = _fit_sets(record, hyp, sets, tf, q, nominal_gain)[0]
+        rss = _fit_near(record, hyp, sets, tf, q, nominal_gain)[0]
         best: dict[int, tuple[int, float]] = {}
         for (i, d), r in zip(moves, rss[1:], strict=True):
             if r < rss[0] and (i not in best or r < best[i][1]):
@@ -386,7 +406,7 @@ def _prune_forced(
         if forced.size == 0:
             break
         variants = [slips, *_each_without(slips, forced)]
-        rss, _ = _fit_sets(record, hyp, variants, tf, q, nominal_gain)
+        rss, _ = _fit_near(record, hyp, variants, tf, q, nominal_gain)
         ic = criterion(rss, fixed + np.array([v.read.sum() for v in variants]), record.n_fit)
         better = forced[rss[1:] < rss[0]] if harmful_only else forced[ic[1:] < ic[0]]
         if better.size == 0:

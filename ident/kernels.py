@@ -315,29 +315,37 @@ def iir_rows(b, a, x, horizon, skip):
 
 
 @njit(cache=True, nogil=True)
+def piece_coefficients(at, d, breaks, landing, m, coef):
+    """Write into ``coef`` [M + 1, 4] the coefficients of ``ident.valve_model.ROWS`` on each piece of one slip
+    set (rows ``at``, ``d``, ``breaks``, ``landing`` [M], the first ``m`` real): piece 0 before the first slip,
+    piece j + 1 from slip j on, chained from the last slip at a held drive (or the level before the first)."""
+    coef[0, 0], coef[0, 1], coef[0, 2], coef[0, 3] = 0.0, 0.0, 0.0, 1.0
+    last, crossing, at_last = -1, 0.0, 0.0
+    for j in range(m):
+        if breaks[j] <= 0:
+            last, at_last = j, crossing
+        else:
+            crossing += d[j]
+        if last >= 0:
+            coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = landing[last], -d[last], 0.0
+        else:
+            coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = 0.0, 0.0, 1.0
+        coef[j + 1, 2] = crossing - at_last
+
+
+@njit(cache=True, nogil=True)
 def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
     """[V, 4, n] regressors of each slip set (rows ``at``, ``d``, ``breaks``, ``landing`` [V, M], the
     first ``counts[v]`` real, ``at`` increasing), as ``ident.valve_model.path_regressors_many`` says:
-    a piece per slip, its coefficients chained from the last slip at a held drive (or the level before
-    the first slip); then each slip's interval, the old position until the break, less the slip's
-    ``slip_share`` of the interval (last slip first: each reads its predecessor's sample unchanged)."""
+    a piece per slip (``piece_coefficients``); then each slip's interval, the old position until the break,
+    less the slip's ``slip_share`` of the interval (last slip first: each reads its predecessor's sample
+    unchanged)."""
     v_count = at.shape[0]
     out = np.zeros((v_count, 4, n))
     coef = np.empty((at.shape[1] + 1, 4))
     for v in range(v_count):
         m = counts[v]
-        coef[0, 0], coef[0, 1], coef[0, 2], coef[0, 3] = 0.0, 0.0, 0.0, 1.0
-        last, crossing, at_last = -1, 0.0, 0.0
-        for j in range(m):
-            if breaks[v, j] <= 0:
-                last, at_last = j, crossing
-            else:
-                crossing += d[v, j]
-            if last >= 0:
-                coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = landing[v, last], -d[v, last], 0.0
-            else:
-                coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = 0.0, 0.0, 1.0
-            coef[j + 1, 2] = crossing - at_last
+        piece_coefficients(at[v], d[v], breaks[v], landing[v], m, coef)
         piece = 0
         for k in range(n):
             while piece < m and at[v, piece] <= k:

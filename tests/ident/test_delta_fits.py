@@ -1,0 +1,83 @@
+"""The fits of slip sets near a base set (``ident.delta_fits``) against the fits that filter every set through
+the process (``ident.fit._fit_sets``): the same residuals and coefficients, for slips moved and dropped, a
+fixed and a free gain, a moving drive (an actuator lag: slips that break within an interval and chain their
+jumps), a compared horizon over one sample and an external oscillation's nuisances."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stiction.ident import fit
+from stiction.ident.objective import nuisance_basis
+from stiction.ident.process import Dynamics, transfer_function
+from stiction.ident.record import Record
+from stiction.ident.stem import StemReader
+from stiction.ident.valve_model import Hypothesis, Slips, drive_of
+from stiction.sim.disturbance import Disturbance
+from stiction.sim.extensions import Extensions
+from stiction.sim.loop import LoopSpec, simulate
+
+HYPOTHESES = {
+    "sensor lag, fixed gain": Hypothesis(dynamics=Dynamics(sensor_tau_s=3.0)),
+    "actuator lag, free gain": Hypothesis(gain_free=True, actuator_tau_s=2.5),
+    "self-regulating, dead time, load": Hypothesis(
+        dynamics=Dynamics(time_constant_s=150.0, dead_time_s=2.4), osc_period_s=90.0
+    ),
+}
+
+
+def _record(horizon: int) -> Record:
+    spec = LoopSpec(40.0, 15.0, disturbance=Disturbance("gaussian", "output", 0.02),
+                    extensions=Extensions(actuator_tau_s=2.5), seed=4)  # fmt: skip
+    r = simulate([spec]).kept()
+    return Record(r.op[0], r.pv[0], 1.0, horizon=horizon)
+
+
+def _near(base: Slips, n: int) -> list[Slips]:
+    """The base, then each slip moved a sample either way (where it stays between its neighbours), then each
+    dropped."""
+    sets = [base]
+    for i in range(base.at.size):
+        for step in (-1, 1):
+            at = base.at.copy()
+            at[i] += step
+            if (i == 0 or at[i] > at[i - 1]) and (i + 1 == at.size or at[i] < at[i + 1]) and 0 < at[i] < n:
+                sets.append(replace(base, at=at))
+    return sets + fit._each_without(base, np.arange(base.at.size))
+
+
+@pytest.mark.parametrize("horizon", [1, 6])
+@pytest.mark.parametrize("name", list(HYPOTHESES))
+def test_fits_near_a_base_are_the_fits_of_every_set_filtered(name, horizon):
+    record, hyp = _record(horizon), HYPOTHESES[name]
+    tf = transfer_function(hyp.dynamics, record.ts_s)
+    q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
+    path = StemReader(record.pv_pct, record.ts_s).paths([(hyp.dynamics, hyp.osc_period_s)])[0]
+    walked = fit.fit_valve(record, hyp, path, search="quick").slips
+    read = Slips.from_path(path, drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s))
+    # slips that break within their interval chain their jumps (a moving drive): every other one here
+    breaking = replace(read, breaks=np.where(np.arange(read.at.size) % 2 == 1, 0.4, 0.0))
+    for base in (walked, read, breaking):
+        assert base.at.size > 10
+        sets = _near(base, record.n)
+        want_rss, want_coef = fit._fit_sets(record, hyp, sets, tf, q, 1.0)
+        rss, coef = fit._fit_near(record, hyp, sets, tf, q, 1.0)
+        np.testing.assert_allclose(rss, want_rss, rtol=1e-8)
+        # a row the compared samples hardly see (the level before an early first slip) is held by the ridge
+        # alone: its coefficient is nothing but rounding, in either
+        np.testing.assert_allclose(coef, want_coef, rtol=1e-6, atol=1e-6 * np.abs(want_coef).max())
+
+
+def test_a_set_that_differs_in_many_places_is_still_fitted():
+    """Sets far from the base (more steps than ``MAX_STEPS``) are filtered in full, not dropped."""
+    record, hyp = _record(1), HYPOTHESES["sensor lag, fixed gain"]
+    tf = transfer_function(hyp.dynamics, record.ts_s)
+    q = nuisance_basis(record, tf)
+    path = StemReader(record.pv_pct, record.ts_s).paths([(hyp.dynamics, None)])[0]
+    base = Slips.from_path(path, drive_of(record.op_pct, 0.0, record.ts_s))
+    far = replace(base, at=base.at + 1, landing_drive=base.landing_drive + 0.3)
+    sets = [base, far, fit._each_without(base, np.array([3]))[0]]
+    want_rss, _ = fit._fit_sets(record, hyp, sets, tf, q, 1.0)
+    rss, _ = fit._fit_near(record, hyp, sets, tf, q, 1.0)
+    np.testing.assert_allclose(rss, want_rss, rtol=1e-8)
