@@ -41,7 +41,6 @@ from stiction.ident.valve_model import (
     drive_of,
     linear_fit,
     own_params,
-    packed_slips,
     path_regressors,
     path_regressors_many,
     solve,
@@ -148,22 +147,51 @@ def _fit_sets(record: Record, hyp: Hypothesis, sets: list[Slips], tf: TransferFu
     return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
 
-def _fit_near(record: Record, hyp: Hypothesis, sets: list[Slips], tf: TransferFunction, q: np.ndarray,
-              nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """``_fit_sets`` of slip sets that each differ from ``sets[0]`` in a few places (a slip moved or dropped):
-    from the base's fit and each one's steps (``ident.delta_fits``), without filtering them; those that
-    differ in many places filtered as ``_fit_sets`` does."""
+def _fit_near(record: Record, hyp: Hypothesis, packed: tuple[np.ndarray, ...], tf: TransferFunction,
+              q: np.ndarray, nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """``_fit_sets`` of slip sets (``packed_slips``) that each differ from the first in a few places (a slip
+    moved or dropped): from the first's fit and each one's steps (``ident.delta_fits``), without filtering
+    them; those that differ in many places filtered as ``_fit_sets`` does."""
     n, rows = record.n, solved_rows(hyp)
-    near = delta_fits.NearBase(record, tf, q, path_regressors_many(sets[:1], n, record.ts_s, hyp.snapshot)[0])
-    rss, coef = np.empty(len(sets)), np.zeros((len(sets), 4))
-    rss[:], coef[:, rows] = near.fits(packed_slips(sets, n), SLIP_S / record.ts_s, hyp.snapshot,
-                                      np.array(rows, np.int64), hyp.gain_free, nominal_gain)  # fmt: skip
+    at, d, breaks, landing, counts = packed
+    base_regs = kernels.path_regressors(at[:1], d[:1], breaks[:1], landing[:1], counts[:1], n, SLIP_S / record.ts_s,
+                                        hyp.snapshot)[0]  # fmt: skip
+    near = delta_fits.NearBase(record, tf, q, base_regs)
+    rss, coef = np.empty(counts.size), np.zeros((counts.size, 4))
+    rss[:], coef[:, rows] = near.fits(packed, SLIP_S / record.ts_s, hyp.snapshot, np.array(rows, np.int64),
+                                      hyp.gain_free, nominal_gain)  # fmt: skip
     far = np.flatnonzero(np.isnan(rss))
     if far.size:
-        rss[far], coef[far] = _fit_sets(record, hyp, [sets[i] for i in far], tf, q, nominal_gain)
+        sets = [Slips(at[v, : counts[v]], d[v, : counts[v]], breaks[v, : counts[v]], landing[v, : counts[v]],
+                      np.ones(counts[v], bool)) for v in far]  # fmt: skip
+        rss[far], coef[far] = _fit_sets(record, hyp, sets, tf, q, nominal_gain)
     if not hyp.gain_free:
         coef[:, 0] = nominal_gain
     return rss, coef
+
+
+def _moved(path: StemPath, at: np.ndarray, moves: np.ndarray, drive: Drive, n: int) -> tuple[np.ndarray, ...]:
+    """``packed_slips`` of the read slips at ``at``, then of each of ``moves`` [C, 2] (a slip's index, its shift)
+    applied alone, as ``Slips.from_path`` reads them."""
+    c = 1 + moves.shape[0]
+    at_m = np.tile(at, (c, 1))
+    at_m[1 + np.arange(moves.shape[0]), moves[:, 0]] += moves[:, 1]
+    d = np.tile(np.asarray(path.directions, float), (c, 1))
+    return at_m, d, np.zeros(at_m.shape), drive.mean[at_m], np.full(c, at.size, np.int64)
+
+
+def _without(slips: Slips, drop: np.ndarray, n: int) -> tuple[np.ndarray, ...]:
+    """``packed_slips`` of ``slips``, then of it less one of ``drop`` each (padded past the record's end)."""
+    m = slips.at.size
+    keep = np.ones((drop.size, m), bool)
+    keep[np.arange(drop.size), drop] = False
+    idx = np.nonzero(keep)[1].reshape(drop.size, m - 1)
+    out = []
+    for field, pad in (("at", n), ("directions", 0.0), ("breaks", 0.0), ("landing_drive", 0.0)):
+        x = getattr(slips, field)
+        rows = np.concatenate([x[idx], np.full((drop.size, 1), pad, x.dtype)], axis=1)
+        out.append(np.vstack([x[None, :], rows]).astype(np.int64 if field == "at" else float))
+    return (*out, np.concatenate([[m], np.full(drop.size, m - 1)]).astype(np.int64))
 
 
 def _walk_parameters(coef: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -236,12 +264,8 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
     for _ in range(SLIP_SWEEPS):
         bounds = np.concatenate([[0], at, [record.n]])  # a slip stays between its neighbours, inside the record
         moves = [(i, d) for i in range(at.size) for d in SLIP_SHIFTS if bounds[i] < at[i] + d < bounds[i + 2]]
-        sets = [Slips.from_path(replace(path, slips=at), drive)]
-        for i, d in moves:
-            shifted = at.copy()
-            shifted[i] += d
-            sets.append(Slips.from_path(replace(path, slips=shifted), drive))
-        rss = _fit_near(record, hyp, sets, tf, q, nominal_gain)[0]
+        packed = _moved(path, at, np.array(moves, np.int64).reshape(-1, 2), drive, record.n)
+        rss = _fit_near(record, hyp, packed, tf, q, nominal_gain)[0]
         best: dict[int, tuple[int, float]] = {}
         for (i, d), r in zip(moves, rss[1:], strict=True):
             if r < rss[0] and (i not in best or r < best[i][1]):
@@ -375,16 +399,6 @@ twice.  One round instead of two left every figure of ``stiction bench diagnose`
 draws and the wide ones) unchanged; none at all moved the wide draws' dead time 3.7 -> 4.0 pp."""
 
 
-def _each_without(slips: Slips, drop: np.ndarray) -> list[Slips]:
-    """``slips`` less one of ``drop`` each: every field gathered for all of them at once."""
-    m = slips.at.size
-    keep = np.ones((drop.size, m), bool)
-    keep[np.arange(drop.size), drop] = False
-    idx = np.nonzero(keep)[1].reshape(drop.size, m - 1)
-    columns = [getattr(slips, f.name)[idx] for f in fields(Slips)]
-    return [Slips(*(c[v] for c in columns)) for v in range(drop.size)]
-
-
 def _prune_forced(
     record: Record,
     hyp: Hypothesis,
@@ -405,9 +419,9 @@ def _prune_forced(
         forced = np.flatnonzero(slips.read)
         if forced.size == 0:
             break
-        variants = [slips, *_each_without(slips, forced)]
-        rss, _ = _fit_near(record, hyp, variants, tf, q, nominal_gain)
-        ic = criterion(rss, fixed + np.array([v.read.sum() for v in variants]), record.n_fit)
+        rss, _ = _fit_near(record, hyp, _without(slips, forced, record.n), tf, q, nominal_gain)
+        read = int(slips.read.sum())
+        ic = criterion(rss, fixed + np.concatenate([[read], np.full(forced.size, read - 1)]), record.n_fit)
         better = forced[rss[1:] < rss[0]] if harmful_only else forced[ic[1:] < ic[0]]
         if better.size == 0:
             break
