@@ -66,87 +66,111 @@ def _regressors_at(coef, at, breaks, m, k, n, slip_share, snapshot, out):
 
 
 @njit(cache=True, nogil=True)
-def _same_slip(slip_at, directions, breaks, landing, u, i, v, j):
-    """Whether slip i of set u and slip j of set v are the same slip."""
-    return (
-        slip_at[u, i] == slip_at[v, j]
-        and directions[u, i] == directions[v, j]
-        and breaks[u, i] == breaks[v, j]
-        and landing[u, i] == landing[v, j]
-    )
+def _chain_states(d, breaks, landing, m):
+    """The chain of ``ident.kernels.piece_coefficients`` before each slip j of one set (and after the last):
+    (whether a held slip came, its landing, its direction, the jumps' sum, that sum at the held slip) [M + 1]."""
+    held = np.zeros(m + 1, np.bool_)
+    last_landing, last_d = np.zeros(m + 1), np.zeros(m + 1)
+    crossing, at_last = np.zeros(m + 1), np.zeros(m + 1)
+    for j in range(m):
+        held[j + 1], last_landing[j + 1], last_d[j + 1] = held[j], last_landing[j], last_d[j]
+        crossing[j + 1], at_last[j + 1] = crossing[j], at_last[j]
+        if breaks[j] <= 0:
+            held[j + 1], last_landing[j + 1], last_d[j + 1], at_last[j + 1] = True, landing[j], d[j], crossing[j]
+        else:
+            crossing[j + 1] = crossing[j] + d[j]
+    return held, last_landing, last_d, crossing, at_last
 
 
 @njit(cache=True, nogil=True)
-def candidate_steps(slip_at, directions, breaks, landing, counts, n, slip_share, snapshot, tolerance, max_steps):
-    """Each slip set's steps against the first's (the base): (count [C], row [C, S], at [C, S], size [C, S]);
-    a count of -1 where a set has more than ``max_steps`` (it is fitted in full).  The regressors change only
-    at a slip's sample and the one after it, so both sets are read there alone (``_regressors_at``)."""
-    c_count, width = slip_at.shape
+def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift, new_landing, dropped, tolerance,
+                  max_steps):  # fmt: skip
+    """Each candidate's steps against the base slip set (``at``, ``d``, ``breaks``, ``landing`` [M]): candidate c
+    is the base with slip ``index[c]`` dropped, or moved by ``shift[c]`` samples to land at ``new_landing[c]``.
+    (count [C], row [C, S], at [C, S], size [C, S]); a count of -1 where a candidate has more than ``max_steps``.
+
+    Only the pieces from the changed slip to the next held slip after it differ: past a held slip both chains
+    restart alike (``ident.kernels.piece_coefficients``).  So each candidate is read there alone, at its
+    slips' samples and the ones after them (``_regressors_at``), from the base's chain before it."""
+    m = at.size
+    c_count = index.size
     count = np.zeros(c_count, np.int64)
     row_of = np.zeros((c_count, max_steps), np.int64)
-    at = np.zeros((c_count, max_steps), np.int64)
+    step_at = np.zeros((c_count, max_steps), np.int64)
     size = np.zeros((c_count, max_steps))
-    base_coef = np.empty((width + 1, 4))
-    coef = np.empty((width + 1, 4))
-    mb = counts[0]
-    piece_coefficients(slip_at[0], directions[0], breaks[0], landing[0], mb, base_coef)
-    scale = np.zeros(4)
-    for j in range(mb + 1):
-        for row in range(4):
-            scale[row] = max(scale[row], abs(base_coef[j, row]))
+    base_coef = np.empty((m + 1, 4))
+    piece_coefficients(at, d, breaks, landing, m, base_coef)
+    held, last_landing, last_d, crossing, at_last = _chain_states(d, breaks, landing, m)
+    tol = np.empty(4)
+    for row in range(4):
+        scale = 0.0
+        for j in range(m + 1):
+            scale = max(scale, abs(base_coef[j, row]))
+        tol[row] = tolerance * max(scale, 1e-300)
+    lb, ll, ld = np.empty(m), np.empty(m), np.empty(m)
+    la_int = np.empty(m, np.int64)
+    lc = np.empty((m + 1, 4))
+    times = np.empty(4 * m + 4, np.int64)
     vb, vc, prev = np.empty(4), np.empty(4), np.empty(4)
-    times = np.empty(2 * (mb + width) + 1, np.int64)
     for c in range(c_count):
-        mc = counts[c]
-        piece_coefficients(slip_at[c], directions[c], breaks[c], landing[c], mc, coef)
-        tol = np.empty(4)
+        i = index[c]
+        e = i + 1
+        while e < m and breaks[e] > 0:
+            e += 1
+        lo, hi = i, min(e, m - 1)
+        # the candidate's slips lo..hi, and its pieces from the one before slip lo on
+        k_local = 0
+        for j in range(lo, hi + 1):
+            if j == i and dropped[c]:
+                continue
+            la_int[k_local], ld[k_local], lb[k_local], ll[k_local] = at[j], d[j], breaks[j], landing[j]
+            if j == i:
+                la_int[k_local], ll[k_local] = at[j] + shift[c], new_landing[c]
+            k_local += 1
         for row in range(4):
-            own = 0.0
-            for j in range(mc + 1):
-                own = max(own, abs(coef[j, row]))
-            tol[row] = tolerance * max(scale[row], own, 1e-300)
-        # the sets differ from slip j0 on to their last differing slips; the pieces before are the same, and
-        # past a held slip of the common end both chains restart alike
-        j0 = 0
-        while j0 < min(mb, mc) and _same_slip(slip_at, directions, breaks, landing, 0, j0, c, j0):
-            j0 += 1
-        eb, ec = mb - 1, mc - 1
-        while eb >= j0 and ec >= j0 and _same_slip(slip_at, directions, breaks, landing, 0, eb, c, ec):
-            eb, ec = eb - 1, ec - 1
-        while eb + 1 < mb and breaks[0, eb + 1] > 0:
-            eb, ec = eb + 1, ec + 1
-        eb, ec = min(eb + 1, mb - 1), min(ec + 1, mc - 1)
+            lc[0, row] = base_coef[lo, row]
+        h, hl, hd, cr, al = held[lo], last_landing[lo], last_d[lo], crossing[lo], at_last[lo]
+        for t in range(k_local):
+            if lb[t] <= 0:
+                h, hl, hd, al = True, ll[t], ld[t], cr
+            else:
+                cr += ld[t]
+            if h:
+                lc[t + 1, 0], lc[t + 1, 1], lc[t + 1, 3] = hl, -hd, 0.0
+            else:
+                lc[t + 1, 0], lc[t + 1, 1], lc[t + 1, 3] = 0.0, 0.0, 1.0
+            lc[t + 1, 2] = cr - al
         t_count = 0
-        for j in range(j0, eb + 1):
-            times[t_count], times[t_count + 1] = slip_at[0, j], slip_at[0, j] + 1
+        for j in range(lo, hi + 1):
+            times[t_count], times[t_count + 1] = at[j], at[j] + 1
             t_count += 2
-        for j in range(j0, ec + 1):
-            times[t_count], times[t_count + 1] = slip_at[c, j], slip_at[c, j] + 1
+        for t in range(k_local):
+            times[t_count], times[t_count + 1] = la_int[t], la_int[t] + 1
             t_count += 2
         sorted_times = np.sort(times[:t_count])
         prev[:] = 0.0
-        m = 0
+        mc = 0
         last = -1
-        for i in range(t_count):
-            k = sorted_times[i]
+        for q in range(t_count):
+            k = sorted_times[q]
             if k == last or k >= n:
                 continue
             last = k
-            _regressors_at(base_coef, slip_at[0], breaks[0], mb, k, n, slip_share, snapshot, vb)
-            _regressors_at(coef, slip_at[c], breaks[c], mc, k, n, slip_share, snapshot, vc)
+            _regressors_at(base_coef, at, breaks, m, k, n, slip_share, snapshot, vb)
+            _regressors_at(lc, la_int, lb, k_local, k, n, slip_share, snapshot, vc)
             for row in range(4):
                 diff = vc[row] - vb[row]
                 if abs(diff - prev[row]) > tol[row]:
-                    if m == max_steps:
-                        m = -1
+                    if mc == max_steps:
+                        mc = -1
                         break
-                    row_of[c, m], at[c, m], size[c, m] = row, k, diff - prev[row]
-                    m += 1
+                    row_of[c, mc], step_at[c, mc], size[c, mc] = row, k, diff - prev[row]
+                    mc += 1
                     prev[row] = diff
-            if m < 0:
+            if mc < 0:
                 break
-        count[c] = m
-    return count, row_of, at, size
+        count[c] = mc
+    return count, row_of, step_at, size
 
 
 @njit(cache=True, nogil=True)
@@ -269,13 +293,26 @@ class NearBase:
         self.d = step_response(record, tf)
         self.corr = step_correlations(record, self.d, np.vstack([z, q.T]))
 
-    def fits(self, packed: tuple[np.ndarray, ...], slip_share: float, snapshot: bool, rows: np.ndarray,
-             gain_free: bool, nominal_gain: float):  # fmt: skip
-        """(rss [C], solved [C, len(rows)]) of slip sets (``ident.valve_model.packed_slips``), as
-        ``ident.kernels.projected_fits`` gives them; nan where a set differs from the base in more than
-        ``MAX_STEPS`` steps."""
+    def base_fit(self, rows: np.ndarray, gain_free: bool, nominal_gain: float):
+        """(rss, solved [len(rows)]) of the base itself."""
+        rss, solved = delta_fits(self.gram, self.corr, self.n_basis, np.zeros(1, np.int64), np.zeros((1, 1), np.int64),
+                                 np.zeros((1, 1), np.int64), np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1, np.int64),
+                                 self.d.size, self.record.horizon, self.record.skip, self.record.n_fit,
+                                 rows.astype(np.int64), gain_free, float(nominal_gain))  # fmt: skip
+        return rss[0], solved[0]
+
+    def fits(self, base, slip_share: float, snapshot: bool, index: np.ndarray, shift: np.ndarray,
+             new_landing: np.ndarray, dropped: np.ndarray, rows: np.ndarray, gain_free: bool,
+             nominal_gain: float):  # fmt: skip
+        """(rss [C], solved [C, len(rows)]) of the base slip set (an ``ident.valve_model.Slips``) with one slip
+        changed each (``changed_steps``), as ``ident.kernels.projected_fits`` gives them; nan where a candidate
+        differs from the base in more than ``MAX_STEPS`` steps."""
         record = self.record
-        count, row_of, at, size = candidate_steps(*packed, record.n, slip_share, snapshot, STEP_TOLERANCE, MAX_STEPS)
+        count, row_of, at, size = changed_steps(
+            np.asarray(base.at, np.int64), np.asarray(base.directions, float), np.asarray(base.breaks, float),
+            np.asarray(base.landing_drive, float), record.n, slip_share, snapshot, index.astype(np.int64),
+            shift.astype(np.int64), new_landing.astype(float), dropped.astype(np.bool_), STEP_TOLERANCE, MAX_STEPS,
+        )  # fmt: skip
         lags = np.flatnonzero(needed_lags(count, at, record.n))
         lag_index = np.full(record.n, -1, np.int64)
         lag_index[lags] = np.arange(lags.size)

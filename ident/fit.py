@@ -23,7 +23,7 @@ segmentation missed: wherever the drive leaves the band around the stem.
 
 from __future__ import annotations
 
-from dataclasses import fields, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -147,51 +147,61 @@ def _fit_sets(record: Record, hyp: Hypothesis, sets: list[Slips], tf: TransferFu
     return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
 
-def _fit_near(record: Record, hyp: Hypothesis, packed: tuple[np.ndarray, ...], tf: TransferFunction,
-              q: np.ndarray, nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """``_fit_sets`` of slip sets (``packed_slips``) that each differ from the first in a few places (a slip
-    moved or dropped): from the first's fit and each one's steps (``ident.delta_fits``), without filtering
-    them; those that differ in many places filtered as ``_fit_sets`` does."""
+def _fit_near(record: Record, hyp: Hypothesis, base: Slips, change: Changes, tf: TransferFunction, q: np.ndarray,
+              nominal_gain: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """``_fit_sets`` of ``base`` and of it with each of ``change`` made: from the base's fit and each candidate's
+    few steps (``ident.delta_fits``), without filtering them through the process; a candidate that differs in
+    many places (a long chain of jumps at a moving drive) filtered as ``_fit_sets`` does."""
     n, rows = record.n, solved_rows(hyp)
-    at, d, breaks, landing, counts = packed
-    base_regs = kernels.path_regressors(at[:1], d[:1], breaks[:1], landing[:1], counts[:1], n, SLIP_S / record.ts_s,
-                                        hyp.snapshot)[0]  # fmt: skip
-    near = delta_fits.NearBase(record, tf, q, base_regs)
-    rss, coef = np.empty(counts.size), np.zeros((counts.size, 4))
-    rss[:], coef[:, rows] = near.fits(packed, SLIP_S / record.ts_s, hyp.snapshot, np.array(rows, np.int64),
-                                      hyp.gain_free, nominal_gain)  # fmt: skip
-    far = np.flatnonzero(np.isnan(rss))
+    slip_share = SLIP_S / record.ts_s
+    near = delta_fits.NearBase(record, tf, q, path_regressors(base, n, record.ts_s, hyp.snapshot))
+    c = change.index.size
+    rss, coef = np.empty(1 + c), np.zeros((1 + c, 4))
+    rss[1:], coef[1:, rows] = near.fits(base, slip_share, hyp.snapshot, change.index, change.shift,
+                                        change.landing, change.dropped, np.array(rows, np.int64), hyp.gain_free,
+                                        nominal_gain)  # fmt: skip
+    rss[0], coef[0, rows] = near.base_fit(np.array(rows, np.int64), hyp.gain_free, nominal_gain)
+    far = 1 + np.flatnonzero(np.isnan(rss[1:]))
     if far.size:
-        sets = [Slips(at[v, : counts[v]], d[v, : counts[v]], breaks[v, : counts[v]], landing[v, : counts[v]],
-                      np.ones(counts[v], bool)) for v in far]  # fmt: skip
-        rss[far], coef[far] = _fit_sets(record, hyp, sets, tf, q, nominal_gain)
+        sets = change.sets(base)
+        rss[far], coef[far] = _fit_sets(record, hyp, [sets[i - 1] for i in far], tf, q, nominal_gain)
     if not hyp.gain_free:
         coef[:, 0] = nominal_gain
     return rss, coef
 
 
-def _moved(path: StemPath, at: np.ndarray, moves: np.ndarray, drive: Drive, n: int) -> tuple[np.ndarray, ...]:
-    """``packed_slips`` of the read slips at ``at``, then of each of ``moves`` [C, 2] (a slip's index, its shift)
-    applied alone, as ``Slips.from_path`` reads them."""
-    c = 1 + moves.shape[0]
-    at_m = np.tile(at, (c, 1))
-    at_m[1 + np.arange(moves.shape[0]), moves[:, 0]] += moves[:, 1]
-    d = np.tile(np.asarray(path.directions, float), (c, 1))
-    return at_m, d, np.zeros(at_m.shape), drive.mean[at_m], np.full(c, at.size, np.int64)
+@dataclass(frozen=True)
+class Changes:
+    """One change each to a slip set: slip ``index`` dropped, or moved by ``shift`` samples to land at
+    ``landing`` (% of OP)."""
 
+    index: np.ndarray
+    shift: np.ndarray
+    landing: np.ndarray
+    dropped: np.ndarray
 
-def _without(slips: Slips, drop: np.ndarray, n: int) -> tuple[np.ndarray, ...]:
-    """``packed_slips`` of ``slips``, then of it less one of ``drop`` each (padded past the record's end)."""
-    m = slips.at.size
-    keep = np.ones((drop.size, m), bool)
-    keep[np.arange(drop.size), drop] = False
-    idx = np.nonzero(keep)[1].reshape(drop.size, m - 1)
-    out = []
-    for field, pad in (("at", n), ("directions", 0.0), ("breaks", 0.0), ("landing_drive", 0.0)):
-        x = getattr(slips, field)
-        rows = np.concatenate([x[idx], np.full((drop.size, 1), pad, x.dtype)], axis=1)
-        out.append(np.vstack([x[None, :], rows]).astype(np.int64 if field == "at" else float))
-    return (*out, np.concatenate([[m], np.full(drop.size, m - 1)]).astype(np.int64))
+    @classmethod
+    def moves(cls, moves: np.ndarray, at: np.ndarray, drive: Drive) -> Changes:
+        """Each of ``moves`` [C, 2] (a read slip's index, its shift): it lands where the drive is then."""
+        index, shift = moves[:, 0].astype(np.int64), moves[:, 1].astype(np.int64)
+        return cls(index, shift, drive.mean[at[index] + shift], np.zeros(index.size, bool))
+
+    @classmethod
+    def drops(cls, index: np.ndarray) -> Changes:
+        z = np.zeros(index.size)
+        return cls(np.asarray(index, np.int64), z.astype(np.int64), z, np.ones(index.size, bool))
+
+    def sets(self, base: Slips) -> list[Slips]:
+        """The slip sets themselves, each the base with its change made (what ``_fit_sets`` reads)."""
+        out = []
+        for i, s, land, drop in zip(self.index, self.shift, self.landing, self.dropped, strict=True):
+            if drop:
+                out.append(Slips(*(np.delete(getattr(base, f.name), i) for f in fields(Slips))))
+            else:
+                at, landing = base.at.copy(), base.landing_drive.copy()
+                at[i], landing[i] = at[i] + s, land
+                out.append(replace(base, at=at, landing_drive=landing))
+        return out
 
 
 def _walk_parameters(coef: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -264,8 +274,8 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
     for _ in range(SLIP_SWEEPS):
         bounds = np.concatenate([[0], at, [record.n]])  # a slip stays between its neighbours, inside the record
         moves = [(i, d) for i in range(at.size) for d in SLIP_SHIFTS if bounds[i] < at[i] + d < bounds[i + 2]]
-        packed = _moved(path, at, np.array(moves, np.int64).reshape(-1, 2), drive, record.n)
-        rss = _fit_near(record, hyp, packed, tf, q, nominal_gain)[0]
+        change = Changes.moves(np.array(moves, np.int64).reshape(-1, 2), at, drive)
+        rss = _fit_near(record, hyp, Slips.from_path(replace(path, slips=at), drive), change, tf, q, nominal_gain)[0]
         best: dict[int, tuple[int, float]] = {}
         for (i, d), r in zip(moves, rss[1:], strict=True):
             if r < rss[0] and (i not in best or r < best[i][1]):
@@ -419,7 +429,7 @@ def _prune_forced(
         forced = np.flatnonzero(slips.read)
         if forced.size == 0:
             break
-        rss, _ = _fit_near(record, hyp, _without(slips, forced, record.n), tf, q, nominal_gain)
+        rss, _ = _fit_near(record, hyp, slips, Changes.drops(forced), tf, q, nominal_gain)
         read = int(slips.read.sum())
         ic = criterion(rss, fixed + np.concatenate([[read], np.full(forced.size, read - 1)]), record.n_fit)
         better = forced[rss[1:] < rss[0]] if harmful_only else forced[ic[1:] < ic[0]]

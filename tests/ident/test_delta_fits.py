@@ -8,12 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from stiction.ident import fit
+from stiction.ident import delta_fits, fit
 from stiction.ident.objective import nuisance_basis
 from stiction.ident.process import Dynamics, transfer_function
 from stiction.ident.record import Record
 from stiction.ident.stem import StemReader
-from stiction.ident.valve_model import Hypothesis, Slips, drive_of, packed_slips
+from stiction.ident.valve_model import Hypothesis, Slips, drive_of
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, simulate
@@ -34,21 +34,20 @@ def _record(horizon: int) -> Record:
     return Record(r.op[0], r.pv[0], 1.0, horizon=horizon)
 
 
-def _near(base: Slips, n: int) -> list[Slips]:
-    """The base, then each slip moved a sample either way (where it stays between its neighbours), then each
-    dropped."""
-    sets = [base]
-    for i in range(base.at.size):
-        for step in (-1, 1):
-            at = base.at.copy()
-            at[i] += step
-            if (i == 0 or at[i] > at[i - 1]) and (i + 1 == at.size or at[i] < at[i + 1]) and 0 < at[i] < n:
-                sets.append(replace(base, at=at))
-    return sets + [_without(base, i) for i in range(base.at.size)]
-
-
-def _without(base: Slips, i: int) -> Slips:
-    return Slips(*(np.delete(getattr(base, f), i) for f in Slips.__dataclass_fields__))
+def _near(base: Slips, n: int) -> fit.Changes:
+    """Each slip moved a sample either way (where it stays between its neighbours, inside the record), and
+    each dropped; a moved slip lands 0.1 % of OP higher than it did."""
+    moves = [
+        (i, step)
+        for i in range(base.at.size)
+        for step in (-1, 1)
+        if (base.at[i - 1] if i else 0) < base.at[i] + step < (base.at[i + 1] if i + 1 < base.at.size else n)
+    ]
+    index = np.array([i for i, _ in moves] + list(range(base.at.size)))
+    shift = np.array([s for _, s in moves] + [0] * base.at.size)
+    landing = np.concatenate([base.landing_drive[[i for i, _ in moves]] + 0.1, np.zeros(base.at.size)])
+    dropped = np.arange(index.size) >= len(moves)
+    return fit.Changes(index, shift, landing, dropped)
 
 
 @pytest.mark.parametrize("horizon", [1, 6])
@@ -64,24 +63,25 @@ def test_fits_near_a_base_are_the_fits_of_every_set_filtered(name, horizon):
     breaking = replace(read, breaks=np.where(np.arange(read.at.size) % 2 == 1, 0.4, 0.0))
     for base in (walked, read, breaking):
         assert base.at.size > 10
-        sets = _near(base, record.n)
-        want_rss, want_coef = fit._fit_sets(record, hyp, sets, tf, q, 1.0)
-        rss, coef = fit._fit_near(record, hyp, packed_slips(sets, record.n), tf, q, 1.0)
+        change = _near(base, record.n)
+        want_rss, want_coef = fit._fit_sets(record, hyp, [base, *change.sets(base)], tf, q, 1.0)
+        rss, coef = fit._fit_near(record, hyp, base, change, tf, q, 1.0)
         np.testing.assert_allclose(rss, want_rss, rtol=1e-8)
         # a row the compared samples hardly see (the level before an early first slip) is held by the ridge
         # alone: its coefficient is nothing but rounding, in either
         np.testing.assert_allclose(coef, want_coef, rtol=1e-6, atol=1e-6 * np.abs(want_coef).max())
 
 
-def test_a_set_that_differs_in_many_places_is_still_fitted():
-    """Sets far from the base (more steps than ``MAX_STEPS``) are filtered in full, not dropped."""
-    record, hyp = _record(1), HYPOTHESES["sensor lag, fixed gain"]
+def test_a_candidate_that_differs_in_many_places_is_still_fitted():
+    """A dropped slip in a long chain of jumps (more steps than ``MAX_STEPS``) is filtered in full, not lost."""
+    record, hyp = _record(1), HYPOTHESES["actuator lag, free gain"]
     tf = transfer_function(hyp.dynamics, record.ts_s)
     q = nuisance_basis(record, tf)
     path = StemReader(record.pv_pct, record.ts_s).paths([(hyp.dynamics, None)])[0]
-    base = Slips.from_path(path, drive_of(record.op_pct, 0.0, record.ts_s))
-    far = replace(base, at=base.at + 1, landing_drive=base.landing_drive + 0.3)
-    sets = [base, far, _without(base, 3)]
-    want_rss, _ = fit._fit_sets(record, hyp, sets, tf, q, 1.0)
-    rss, _ = fit._fit_near(record, hyp, packed_slips(sets, record.n), tf, q, 1.0)
+    base = Slips.from_path(path, drive_of(record.op_pct, 2.5, record.ts_s))
+    base = replace(base, breaks=np.where(np.arange(base.at.size) > 0, 0.3, 0.0))  # every jump chained
+    assert base.at.size * 2 > delta_fits.MAX_STEPS
+    change = fit.Changes.drops(np.array([1, 3, base.at.size - 2]))
+    want_rss, _ = fit._fit_sets(record, hyp, [base, *change.sets(base)], tf, q, 1.0)
+    rss, _ = fit._fit_near(record, hyp, base, change, tf, q, 1.0)
     np.testing.assert_allclose(rss, want_rss, rtol=1e-8)

@@ -155,9 +155,9 @@ def test_each_slip_dropped_in_turn_keeps_the_others_in_order():
     while slips.at.size < 3:
         slips = _random_slips(rng, 300)
     drop = np.array([0, slips.at.size - 1, slips.at.size // 2])
-    want = [slips] + [M.Slips(*(np.delete(getattr(slips, f), d) for f in M.Slips.__dataclass_fields__)) for d in drop]
-    for got, expected in zip(F._without(slips, drop, 300), M.packed_slips(want, 300), strict=True):
-        np.testing.assert_array_equal(got, expected)
+    for d, variant in zip(drop, F.Changes.drops(drop).sets(slips), strict=True):
+        for name in ("at", "directions", "breaks", "landing_drive", "read"):
+            np.testing.assert_array_equal(getattr(variant, name), np.delete(getattr(slips, name), d))
 
 
 def test_each_slip_moved_in_turn_is_the_path_read_with_it_moved():
@@ -167,13 +167,13 @@ def test_each_slip_moved_in_turn_is_the_path_read_with_it_moved():
     at = np.sort(rng.choice(np.arange(5, 290), 12, replace=False))
     path = StemPath(at, rng.choice([-1, 1], 12), rng.normal(size=13), 0.1)
     moves = np.array([[0, -1], [11, 2], [5, 1]])
-    want = [M.Slips.from_path(path, drive)]
-    for i, d in moves:
+    got = F.Changes.moves(moves, at, drive).sets(M.Slips.from_path(path, drive))
+    for (i, d), variant in zip(moves, got, strict=True):
         moved = at.copy()
         moved[i] += d
-        want.append(M.Slips.from_path(StemPath(moved, path.directions, path.levels, 0.1), drive))
-    for got, expected in zip(F._moved(path, at, moves, drive, 300), M.packed_slips(want, 300), strict=True):
-        np.testing.assert_array_equal(got, expected)
+        want = M.Slips.from_path(StemPath(moved, path.directions, path.levels, 0.1), drive)
+        for name in ("at", "directions", "breaks", "landing_drive", "read"):
+            np.testing.assert_array_equal(getattr(variant, name), getattr(want, name))
 
 
 @pytest.mark.parametrize("fs, fd, tau_s", [(15.9, 7.1, 6.6), (41.6, 5.2, 3.5), (58.7, 45.2, 5.3)])
