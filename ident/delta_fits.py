@@ -110,7 +110,7 @@ def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift,
     lb, ll, ld = np.empty(m), np.empty(m), np.empty(m)
     la_int = np.empty(m, np.int64)
     lc = np.empty((m + 1, 4))
-    times = np.empty(4 * m + 4, np.int64)
+    times = np.empty(2 * m + 2, np.int64)
     vb, vc, prev = np.empty(4), np.empty(4), np.empty(4)
     for c in range(c_count):
         i = index[c]
@@ -118,9 +118,10 @@ def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift,
         while e < m and breaks[e] > 0:
             e += 1
         lo, hi = i, min(e, m - 1)
-        # the candidate's slips lo..hi, and its pieces from the one before slip lo on
+        # the candidate's slips lo..hi and the one after (a slip the sample after slip hi may hold), and its
+        # pieces from the one before slip lo on
         k_local = 0
-        for j in range(lo, hi + 1):
+        for j in range(lo, min(hi + 2, m)):
             if j == i and dropped[c]:
                 continue
             la_int[k_local], ld[k_local], lb[k_local], ll[k_local] = at[j], d[j], breaks[j], landing[j]
@@ -144,8 +145,8 @@ def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift,
         for j in range(lo, hi + 1):
             times[t_count], times[t_count + 1] = at[j], at[j] + 1
             t_count += 2
-        for t in range(k_local):
-            times[t_count], times[t_count + 1] = la_int[t], la_int[t] + 1
+        if not dropped[c]:  # the moved slip's own samples (its others are the base's)
+            times[t_count], times[t_count + 1] = at[i] + shift[c], at[i] + shift[c] + 1
             t_count += 2
         sorted_times = np.sort(times[:t_count])
         prev[:] = 0.0

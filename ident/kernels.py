@@ -71,9 +71,12 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
                 m += 1
                 level = p - d * stop[c]
                 best, best_dist = -1, window + 1
-                for j in range(n_read):
+                # the read slips within the window (read_at increases): the nearest unused one of this direction
+                for j in range(np.searchsorted(read_at, k - window), n_read):
+                    if read_at[j] > k + window:
+                        break
                     dist = abs(read_at[j] - k)
-                    if not used[j] and read_dir[j] == d and dist <= window and dist < best_dist:
+                    if not used[j] and read_dir[j] == d and dist < best_dist:
                         best, best_dist = j, dist
                 if best >= 0:
                     used[best] = True

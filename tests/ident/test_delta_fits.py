@@ -1,7 +1,8 @@
 """The fits of slip sets near a base set (``ident.delta_fits``) against the fits that filter every set through
 the process (``ident.fit._fit_sets``): the same residuals and coefficients, for slips moved and dropped, a
 fixed and a free gain, a moving drive (an actuator lag: slips that break within an interval and chain their
-jumps), a compared horizon over one sample and an external oscillation's nuisances."""
+jumps), slips on neighbouring samples, the stem's position sampled itself (``snapshot``), a compared horizon
+over one sample and an external oscillation's nuisances."""
 
 from dataclasses import replace
 
@@ -21,6 +22,7 @@ from stiction.sim.loop import LoopSpec, simulate
 HYPOTHESES = {
     "sensor lag, fixed gain": Hypothesis(dynamics=Dynamics(sensor_tau_s=3.0)),
     "actuator lag, free gain": Hypothesis(gain_free=True, actuator_tau_s=2.5),
+    "the stem sampled itself": Hypothesis(snapshot=True, dynamics=Dynamics(sensor_tau_s=2.0)),
     "self-regulating, dead time, load": Hypothesis(
         dynamics=Dynamics(time_constant_s=150.0, dead_time_s=2.4), osc_period_s=90.0
     ),
@@ -61,7 +63,14 @@ def test_fits_near_a_base_are_the_fits_of_every_set_filtered(name, horizon):
     read = Slips.from_path(path, drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s))
     # slips that break within their interval chain their jumps (a moving drive): every other one here
     breaking = replace(read, breaks=np.where(np.arange(read.at.size) % 2 == 1, 0.4, 0.0))
-    for base in (walked, read, breaking):
+    # slips on neighbouring samples (a measured record's stem often moves twice running)
+    pairs = np.flatnonzero(np.diff(read.at) > 2)[::3]
+    fields = Slips.__dataclass_fields__
+    twice = Slips(*(np.insert(getattr(read, f), pairs + 1, getattr(read, f)[pairs]) for f in fields))
+    twice = replace(twice, at=np.insert(read.at, pairs + 1, read.at[pairs] + 1))
+    assert np.all(np.diff(twice.at) > 0) and np.sum(np.diff(twice.at) == 1) >= 5
+    twice_breaking = replace(twice, breaks=np.where(np.arange(twice.at.size) % 3 == 1, 0.4, 0.0))
+    for base in (walked, read, breaking, twice, twice_breaking):
         assert base.at.size > 10
         change = _near(base, record.n)
         want_rss, want_coef = fit._fit_sets(record, hyp, [base, *change.sets(base)], tf, q, 1.0)
