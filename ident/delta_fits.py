@@ -290,17 +290,22 @@ class NearBase:
         x0 = record.compared_response(tf, base_regs)
         z = np.vstack([x0 - (x0 @ q) @ q.T, project_out(record.target[None, :], q)])
         self.record, self.base_regs, self.n_basis = record, base_regs, q.shape[1]
+        self.z = z
         self.gram = z @ z.T
         self.d = step_response(record, tf)
         self.corr = step_correlations(record, self.d, np.vstack([z, q.T]))
 
     def base_fit(self, rows: np.ndarray, gain_free: bool, nominal_gain: float):
-        """(rss, solved [len(rows)]) of the base itself."""
+        """(rss, solved [len(rows)], rss as the candidates' normal equations give it) of the base itself, its
+        residual summed sample by sample as ``ident.kernels.projected_fits`` sums it."""
         rss, solved = delta_fits(self.gram, self.corr, self.n_basis, np.zeros(1, np.int64), np.zeros((1, 1), np.int64),
                                  np.zeros((1, 1), np.int64), np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1, np.int64),
                                  self.d.size, self.record.horizon, self.record.skip, self.record.n_fit,
                                  rows.astype(np.int64), gain_free, float(nominal_gain))  # fmt: skip
-        return rss[0], solved[0]
+        z = self.z
+        resid = z[4] if gain_free else z[4] - nominal_gain * z[0]
+        resid = resid - solved[0] @ z[rows]
+        return float(resid @ resid), solved[0], rss[0]
 
     def fits(self, base, slip_share: float, snapshot: bool, index: np.ndarray, shift: np.ndarray,
              new_landing: np.ndarray, dropped: np.ndarray, rows: np.ndarray, gain_free: bool,

@@ -163,9 +163,8 @@ def _fit_near(record: Record, hyp: Hypothesis, base: Slips, change: Changes, tf:
                                         change.landing, change.dropped, np.array(rows, np.int64), hyp.gain_free,
                                         nominal_gain)  # fmt: skip
     # the normal equations lose digits where the fit explains nearly all (1e-6 of the residual on measured
-    # loops): the base's residual summed as _fit_sets sums it, and each candidate's as its difference from it
-    gram_rss, _ = near.base_fit(np.array(rows, np.int64), hyp.gain_free, nominal_gain)
-    rss[0], coef[0] = (x[0] for x in _fit_sets(record, hyp, [base], tf, q, nominal_gain))
+    # loops): the base's residual summed sample by sample, and each candidate's as its difference from it
+    rss[0], coef[0, rows], gram_rss = near.base_fit(np.array(rows, np.int64), hyp.gain_free, nominal_gain)
     rss[1:] += rss[0] - gram_rss
     far = 1 + np.flatnonzero(np.isnan(rss[1:]))
     if far.size:
