@@ -45,6 +45,14 @@ def _break(start, end, mean, moves, decay, k, level, d, band):
 
 
 @njit(cache=True)
+def _wider(x, cap):
+    """``x`` [C, M] copied into zeros of [C, cap]."""
+    out = np.zeros((x.shape[0], cap), x.dtype)
+    out[:, : x.shape[1]] = x
+    return out
+
+
+@njit(cache=True)
 def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
     """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events."""
     n_cand, n, n_read = band.size, end.size, read_at.size
@@ -53,16 +61,23 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
         if 0 <= read_at[j] < n:
             anchor[read_at[j]] = j
     counts = np.zeros(n_cand, np.int64)
-    at = np.zeros((n_cand, n), np.int64)
-    dirs = np.zeros((n_cand, n), np.int64)
-    brk = np.zeros((n_cand, n))
-    land = np.zeros((n_cand, n))
-    forced = np.zeros((n_cand, n), np.bool_)
+    # room for twice the read slips, grown when a candidate needs more: rows of the record's length were
+    # megabytes a call, fresh pages from the system each time (a tenth of a long diagnosis in the kernel)
+    cap = min(n, 2 * n_read + 16)
+    at = np.zeros((n_cand, cap), np.int64)
+    dirs = np.zeros((n_cand, cap), np.int64)
+    brk = np.zeros((n_cand, cap))
+    land = np.zeros((n_cand, cap))
+    forced = np.zeros((n_cand, cap), np.bool_)
     for c in range(n_cand):
         level = level0[c]
         used = np.zeros(n_read, np.bool_)
         m = 0
         for k in range(1, n):
+            if m + 1 >= cap:
+                cap = min(n, 2 * cap)
+                at, dirs, brk, land, forced = (_wider(at, cap), _wider(dirs, cap), _wider(brk, cap),
+                                               _wider(land, cap), _wider(forced, cap))  # fmt: skip
             gap = end[k] - level
             if abs(gap) > band[c]:
                 d = 1 if gap > 0 else -1

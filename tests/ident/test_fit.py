@@ -16,6 +16,22 @@ from stiction.sim.process import LOOPS, continuous_plant, discretise
 from tests.ident.walk_reference import walk_by_sample
 
 
+def test_a_walk_with_many_more_slips_than_were_read_keeps_them_all():
+    """The compiled walk makes room for twice the read slips and grows it: a narrow band slips far more often."""
+    r = simulate([LoopSpec(33.2, 19.4, disturbance=Disturbance("gaussian", "output", 0.03))]).kept()
+    drive = M.drive_of(r.op[0], 0.0, 1.0)
+    path = read_paths(r.pv[0], [Dynamics(None, 0.0, 0.0)], 1.0)[0]
+    read = M.Slips.from_path(path, drive)
+    few = M.Slips(*(getattr(read, f)[:3] for f in M.Slips.__dataclass_fields__))
+    bands, stops, levels = np.array([0.2, 0.5, 12.0]), np.array([0.1, 0.2, 6.0]), np.full(3, r.mv[0, 0])
+    fast = F.walk(few, drive, bands, stops, levels, 3)
+    slow = walk_by_sample(few, drive, bands, stops, levels, 3)
+    assert fast[0].at.size > 4 * few.at.size + 16
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a.at, b.at)
+        np.testing.assert_allclose(a.landing_drive, b.landing_drive)
+
+
 @pytest.mark.parametrize(
     "ext", [Extensions(), Extensions(actuator_tau_s=4.0), Extensions(sensor_tau_s=5.0)], ids=["plain", "lag", "sensor"]
 )
