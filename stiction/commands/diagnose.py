@@ -116,12 +116,14 @@ def progress_line(done: int, failed: int, path: str, samples: int, elapsed_s: fl
 
 
 def _diagnose(path: Path, export, max_causes: int):
-    """(report, record, diagnosis) of one window (on a worker process where ``--jobs`` is above 1)."""
+    """(report, record, diagnosis) of one window (on a worker process where ``--jobs`` is above 1): the
+    export's window whole, as ``--last`` chose it (the reader already says which rows it holds)."""
     from stiction.ident.report import diagnose_loop
 
     return diagnose_loop(
-        path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, None, max_causes, export.sp
-    )
+        path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, export.op.size, max_causes,
+        export.sp,
+    )  # fmt: skip
 
 
 def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:

@@ -45,6 +45,17 @@ def test_json_names_the_cause_and_checks_the_valve_where_mv_is_there(loops, caps
     assert with_mv["valve_check"]["calibration_gain"] == pytest.approx(1, abs=0.02)
 
 
+def test_last_longer_than_the_default_cap_is_diagnosed_whole(loops, capsys, monkeypatch):
+    """``--last N`` is the window diagnosed, even past the cap a caller without it gets (here 600 samples):
+    no second cut, and no advice to use the flag the user just used."""
+    monkeypatch.setattr("stiction.ident.report.MAX_SAMPLES", 600)
+    assert main(["diagnose", "--json", "--last", "800", str(loops / "dt_no_mv.csv")]) == 0
+    r = json.loads(capsys.readouterr().out.strip().splitlines()[0])
+    assert r["n_samples"] == 800
+    assert not any("--last to choose" in w for w in r["warnings"])
+    assert any("800 of 1000 samples" in w for w in r["warnings"])
+
+
 def test_summary_and_plot(loops, tmp_path, capsys):
     assert main(["diagnose", str(loops / "dt_no_mv.csv"), "--plot", str(tmp_path)]) == 0
     out = capsys.readouterr().out
