@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stiction.ident.kernels import piece_coefficients
+from stiction.ident.kernels import chain_step, piece_coefficients, write_piece
 from stiction.ident.objective import project_out
 from stiction.ident.process import TransferFunction
 from stiction.ident.record import Record
@@ -75,12 +75,9 @@ def _chain_states(d, breaks, landing, m):
     last_landing, last_d = np.zeros(m + 1), np.zeros(m + 1)
     crossing, at_last = np.zeros(m + 1), np.zeros(m + 1)
     for j in range(m):
-        held[j + 1], last_landing[j + 1], last_d[j + 1] = held[j], last_landing[j], last_d[j]
-        crossing[j + 1], at_last[j + 1] = crossing[j], at_last[j]
-        if breaks[j] <= 0:
-            held[j + 1], last_landing[j + 1], last_d[j + 1], at_last[j + 1] = True, landing[j], d[j], crossing[j]
-        else:
-            crossing[j + 1] = crossing[j] + d[j]
+        held[j + 1], last_landing[j + 1], last_d[j + 1], crossing[j + 1], at_last[j + 1] = chain_step(
+            held[j], last_landing[j], last_d[j], crossing[j], at_last[j], d[j], breaks[j], landing[j]
+        )
     return held, last_landing, last_d, crossing, at_last
 
 
@@ -134,15 +131,8 @@ def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift,
             lc[0, row] = base_coef[lo, row]
         h, hl, hd, cr, al = held[lo], last_landing[lo], last_d[lo], crossing[lo], at_last[lo]
         for t in range(k_local):
-            if lb[t] <= 0:
-                h, hl, hd, al = True, ll[t], ld[t], cr
-            else:
-                cr += ld[t]
-            if h:
-                lc[t + 1, 0], lc[t + 1, 1], lc[t + 1, 3] = hl, -hd, 0.0
-            else:
-                lc[t + 1, 0], lc[t + 1, 1], lc[t + 1, 3] = 0.0, 0.0, 1.0
-            lc[t + 1, 2] = cr - al
+            h, hl, hd, cr, al = chain_step(h, hl, hd, cr, al, ld[t], lb[t], ll[t])
+            write_piece(lc, t + 1, h, hl, hd, cr, al)
         t_count = 0
         for j in range(lo, hi + 1):
             times[t_count], times[t_count + 1] = at[j], at[j] + 1

@@ -61,8 +61,12 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
         if 0 <= read_at[j] < n:
             anchor[read_at[j]] = j
     counts = np.zeros(n_cand, np.int64)
-    # room for twice the read slips, grown when a candidate needs more: rows of the record's length were
-    # megabytes a call, fresh pages from the system each time (a tenth of a long diagnosis in the kernel)
+    # one candidate's slips go to buffers of the record's length, reused, and then to the outputs, which
+    # have room for twice the read slips and grow when a candidate needs more: outputs of the record's
+    # length were megabytes a call, fresh pages from the system each time (a tenth of a long diagnosis
+    # in the kernel); growing them inside the loop over samples made the loop twice as slow
+    b_at, b_dirs = np.empty(n, np.int64), np.empty(n, np.int64)
+    b_brk, b_land, b_forced = np.empty(n), np.empty(n), np.empty(n, np.bool_)
     cap = min(n, 2 * n_read + 16)
     at = np.zeros((n_cand, cap), np.int64)
     dirs = np.zeros((n_cand, cap), np.int64)
@@ -74,15 +78,11 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
         used = np.zeros(n_read, np.bool_)
         m = 0
         for k in range(1, n):
-            if m + 1 >= cap:
-                cap = min(n, 2 * cap)
-                at, dirs, brk, land, forced = (_wider(at, cap), _wider(dirs, cap), _wider(brk, cap),
-                                               _wider(land, cap), _wider(forced, cap))  # fmt: skip
             gap = end[k] - level
             if abs(gap) > band[c]:
                 d = 1 if gap > 0 else -1
                 f, p = _break(start, end, mean, moves, decay, k, level, d, band[c])
-                at[c, m], dirs[c, m], brk[c, m], land[c, m], forced[c, m] = k, d, f, p, False
+                b_at[m], b_dirs[m], b_brk[m], b_land[m], b_forced[m] = k, d, f, p, False
                 m += 1
                 level = p - d * stop[c]
                 best, best_dist = -1, window + 1
@@ -109,10 +109,16 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
                         break
                 if soon:
                     continue
-                at[c, m], dirs[c, m], brk[c, m], land[c, m], forced[c, m] = k, d, 0.0, mean[k], True
+                b_at[m], b_dirs[m], b_brk[m], b_land[m], b_forced[m] = k, d, 0.0, mean[k], True
                 m += 1
                 used[j] = True
                 level = read_levels[j] if use_levels else mean[k] - d * stop[c]
+        if m > cap:
+            cap = min(n, max(m, 2 * cap))
+            at, dirs, brk, land, forced = (_wider(at, cap), _wider(dirs, cap), _wider(brk, cap), _wider(land, cap),
+                                           _wider(forced, cap))  # fmt: skip
+        at[c, :m], dirs[c, :m], brk[c, :m], land[c, :m], forced[c, :m] = (b_at[:m], b_dirs[:m], b_brk[:m],
+                                                                          b_land[:m], b_forced[:m])  # fmt: skip
         counts[c] = m
     return counts, at, dirs, brk, land, forced
 
@@ -332,23 +338,36 @@ def iir_rows(b, a, x, horizon, skip):
     return out
 
 
+@njit(cache=True, nogil=True, inline="always")
+def chain_step(held, last_landing, last_d, crossing, at_last, d, brk, landing):
+    """The chain of a slip set's pieces after one more slip: (whether a slip at a held drive came, its landing,
+    its direction, the sum of the jumps at a moving drive, that sum at the held slip)."""
+    if brk <= 0:
+        return True, landing, d, crossing, crossing
+    return held, last_landing, last_d, crossing + d, at_last
+
+
+@njit(cache=True, nogil=True, inline="always")
+def write_piece(coef, j, held, last_landing, last_d, crossing, at_last):
+    """``coef[j]``, the coefficients of ``ident.valve_model.ROWS`` on a piece, from the chain before it: the last
+    held slip's landing less its stop, plus the jumps since (or the level before the first slip)."""
+    if held:
+        coef[j, 0], coef[j, 1], coef[j, 3] = last_landing, -last_d, 0.0
+    else:
+        coef[j, 0], coef[j, 1], coef[j, 3] = 0.0, 0.0, 1.0
+    coef[j, 2] = crossing - at_last
+
+
 @njit(cache=True, nogil=True)
 def piece_coefficients(at, d, breaks, landing, m, coef):
     """Write into ``coef`` [M + 1, 4] the coefficients of ``ident.valve_model.ROWS`` on each piece of one slip
     set (rows ``at``, ``d``, ``breaks``, ``landing`` [M], the first ``m`` real): piece 0 before the first slip,
     piece j + 1 from slip j on, chained from the last slip at a held drive (or the level before the first)."""
-    coef[0, 0], coef[0, 1], coef[0, 2], coef[0, 3] = 0.0, 0.0, 0.0, 1.0
-    last, crossing, at_last = -1, 0.0, 0.0
+    h, hl, hd, cr, al = False, 0.0, 0.0, 0.0, 0.0
+    write_piece(coef, 0, h, hl, hd, cr, al)
     for j in range(m):
-        if breaks[j] <= 0:
-            last, at_last = j, crossing
-        else:
-            crossing += d[j]
-        if last >= 0:
-            coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = landing[last], -d[last], 0.0
-        else:
-            coef[j + 1, 0], coef[j + 1, 1], coef[j + 1, 3] = 0.0, 0.0, 1.0
-        coef[j + 1, 2] = crossing - at_last
+        h, hl, hd, cr, al = chain_step(h, hl, hd, cr, al, d[j], breaks[j], landing[j])
+        write_piece(coef, j + 1, h, hl, hd, cr, al)
 
 
 @njit(cache=True, nogil=True)
