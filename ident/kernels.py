@@ -62,9 +62,9 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
             anchor[read_at[j]] = j
     counts = np.zeros(n_cand, np.int64)
     # one candidate's slips go to buffers of the record's length, reused, and then to the outputs, which
-    # have room for twice the read slips and grow when a candidate needs more: outputs of the record's
-    # length were megabytes a call, fresh pages from the system each time (a tenth of a long diagnosis
-    # in the kernel); growing them inside the loop over samples made the loop twice as slow
+    # have room for twice the read slips and grow when a candidate needs more (five outputs of the record's
+    # length were megabytes a call; growing them inside the loop over samples made the loop twice as slow):
+    # 1.7-2.5 ms a call of 40 candidates on 3,600 samples, against 2.4-3.5 ms with outputs of the record's length
     b_at, b_dirs = np.empty(n, np.int64), np.empty(n, np.int64)
     b_brk, b_land, b_forced = np.empty(n), np.empty(n), np.empty(n, np.bool_)
     cap = min(n, 2 * n_read + 16)
