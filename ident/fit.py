@@ -154,22 +154,21 @@ def _fit_near(record: Record, hyp: Hypothesis, base: Slips, change: Changes, tf:
     """``_fit_sets`` of ``base`` and of it with each of ``change`` made: from the base's fit and each candidate's
     few steps (``ident.delta_fits``), without filtering them through the process; a candidate that differs in
     many places (a long chain of jumps at a moving drive) filtered as ``_fit_sets`` does."""
-    n, rows = record.n, solved_rows(hyp)
-    slip_share = SLIP_S / record.ts_s
-    near = delta_fits.NearBase(record, tf, q, path_regressors(base, n, record.ts_s, hyp.snapshot))
+    rows = solved_rows(hyp)
+    row_index = np.array(rows, np.int64)
+    near = delta_fits.NearBase(record, tf, q, path_regressors(base, record.n, record.ts_s, hyp.snapshot))
     c = change.index.size
     rss, coef = np.empty(1 + c), np.zeros((1 + c, 4))
-    rss[1:], coef[1:, rows] = near.fits(base, slip_share, hyp.snapshot, change.index, change.shift,
-                                        change.landing, change.dropped, np.array(rows, np.int64), hyp.gain_free,
-                                        nominal_gain)  # fmt: skip
+    rss[1:], coef[1:, rows] = near.fits(base, SLIP_S / record.ts_s, hyp.snapshot, change.index, change.shift,
+                                        change.landing, change.dropped, row_index, hyp.gain_free, nominal_gain)
     # the normal equations lose digits where the fit explains nearly all (1e-6 of the residual on measured
     # loops): the base's residual summed sample by sample, and each candidate's as its difference from it
-    rss[0], coef[0, rows], gram_rss = near.base_fit(np.array(rows, np.int64), hyp.gain_free, nominal_gain)
+    rss[0], coef[0, rows], gram_rss = near.base_fit(row_index, hyp.gain_free, nominal_gain)
     rss[1:] += rss[0] - gram_rss
-    far = 1 + np.flatnonzero(np.isnan(rss[1:]))
+    far = np.flatnonzero(np.isnan(rss[1:]))
     if far.size:
-        sets = change.sets(base)
-        rss[far], coef[far] = _fit_sets(record, hyp, [sets[i - 1] for i in far], tf, q, nominal_gain)
+        sets = change.only(far).sets(base)
+        rss[1 + far], coef[1 + far] = _fit_sets(record, hyp, sets, tf, q, nominal_gain)
     if not hyp.gain_free:
         coef[:, 0] = nominal_gain
     return rss, coef
@@ -195,6 +194,10 @@ class Changes:
     def drops(cls, index: np.ndarray) -> Changes:
         z = np.zeros(index.size)
         return cls(np.asarray(index, np.int64), z.astype(np.int64), z, np.ones(index.size, bool))
+
+    def only(self, which: np.ndarray) -> Changes:
+        """These changes at indices ``which``."""
+        return Changes(*(getattr(self, f.name)[which] for f in fields(Changes)))
 
     def sets(self, base: Slips) -> list[Slips]:
         """The slip sets themselves, each the base with its change made (what ``_fit_sets`` reads)."""

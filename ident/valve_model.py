@@ -145,12 +145,6 @@ def path_regressors_many(many: list[Slips], n: int, ts_s: float, snapshot: bool 
     slip's piece runs from the last slip at a held drive (or the level before the first slip) on, plus
     the jumps of the slips at a moving drive since then.  Compiled (``ident.kernels.path_regressors``);
     the tests hold it to a slip-by-slip transcription."""
-    return kernels.path_regressors(*packed_slips(many, n), int(n), SLIP_S / ts_s, bool(snapshot))
-
-
-def packed_slips(many: list[Slips], n: int) -> tuple[np.ndarray, ...]:
-    """(at, directions, breaks, landing_drive [V, M], counts [V]) of slip sets, padded past the record's end:
-    what the compiled kernels read."""
     v_count, m = len(many), max((s.at.size for s in many), default=0)
     at = np.full((v_count, m), n, np.int64)
     d, breaks, landing = np.zeros((v_count, m)), np.zeros((v_count, m)), np.zeros((v_count, m))
@@ -158,7 +152,7 @@ def packed_slips(many: list[Slips], n: int) -> tuple[np.ndarray, ...]:
     for v, s in enumerate(many):
         k = counts[v] = s.at.size
         at[v, :k], d[v, :k], breaks[v, :k], landing[v, :k] = s.at, s.directions, s.breaks, s.landing_drive
-    return at, d, breaks, landing, counts
+    return kernels.path_regressors(at, d, breaks, landing, counts, int(n), SLIP_S / ts_s, bool(snapshot))
 
 
 @dataclass(frozen=True)
