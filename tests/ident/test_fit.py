@@ -32,6 +32,15 @@ def test_a_walk_with_many_more_slips_than_were_read_keeps_them_all():
         np.testing.assert_allclose(a.landing_drive, b.landing_drive)
 
 
+def test_a_walk_refuses_read_slips_out_of_time_order():
+    """The compiled walk looks up read slips by binary search: slips out of order would be missed, not read."""
+    op = np.linspace(0.0, 10.0, 200)
+    drive = M.drive_of(op, 0.0, 1.0)
+    path = StemPath(np.array([50, 20, 120]), np.array([1, 1, 1]), np.zeros(4), 0.1)
+    with pytest.raises(ValueError, match="out of time order"):
+        F.walk(M.Slips.from_path(path, drive), drive, np.array([1.0]), np.array([0.5]), np.zeros(1), 3)
+
+
 @pytest.mark.parametrize(
     "ext", [Extensions(), Extensions(actuator_tau_s=4.0), Extensions(sensor_tau_s=5.0)], ids=["plain", "lag", "sensor"]
 )
