@@ -66,7 +66,12 @@ def walk(
     does not make, and will not make within ``window`` samples after it, is made there anyway
     (forced): the model re-synchronises with the data instead of drifting away from it for
     the rest of the record.  With ``read_levels`` (% of OP) the stem continues after a slip the
-    data confirm from the data's estimate of where it landed, as an observer would.
+    data confirm from the data's estimate of where it landed, as an observer would, where that is
+    short of the model's own landing; never past it.  Behind a long actuator lag the drive creeps
+    on after a slip and breaks the stem away again a few samples later (the simulator's stair,
+    ``sim.valve.lagged_valve_step``); PV reads the stair as one step, and the stem set at its end
+    at the first slip made no second one (``stiction bench diagnose --draws wide``: 6 of 8 lags
+    named on the bench's seed, 8 of 8 after).
     Compiled (``ident.kernels``); ``tests/ident/walk_reference.py`` is the plain transcription.
     """
     if np.any(np.diff(read.at) < 0):

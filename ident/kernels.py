@@ -95,7 +95,11 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
                         best, best_dist = j, dist
                 if best >= 0:
                     used[best] = True
-                    if use_levels:
+                    # the observer pulls the stem back to the data's landing, never past its own: behind a
+                    # long lag the drive breaks a stem away again and again as it creeps on (a stair of
+                    # slips a few samples apart), which PV reads as one step; set at the stair's end at its
+                    # first slip, the stem slipped no more (``ident.fit.walk``)
+                    if use_levels and d * (read_levels[best] - level) < 0:
                         level = read_levels[best]
                 continue
             j = anchor[k]

@@ -9,7 +9,8 @@ from stiction.ident.valve_model import Drive, Slips
 
 
 def walk_by_sample(
-    read: Slips, drive: Drive, band: np.ndarray, stop: np.ndarray, level0: np.ndarray, window: int
+    read: Slips, drive: Drive, band: np.ndarray, stop: np.ndarray, level0: np.ndarray, window: int,
+    read_levels: np.ndarray | None = None,
 ) -> list[Slips]:
     out = []
     for c in range(band.size):
@@ -28,7 +29,11 @@ def walk_by_sample(
                 near = [i for i in range(read.at.size) if abs(read.at[i] - k) <= window and read.directions[i] == d]
                 near = [i for i in near if not used[i]]
                 if near:
-                    used[min(near, key=lambda i: abs(read.at[i] - k))] = True
+                    i = min(near, key=lambda i: abs(read.at[i] - k))
+                    used[i] = True
+                    # the observer: the data's landing where it is short of the model's, never past it
+                    if read_levels is not None and d * (read_levels[i] - level) < 0:
+                        level = float(read_levels[i])
                 continue
             if j is not None and not used[j]:
                 d = int(read.directions[j])
@@ -39,6 +44,6 @@ def walk_by_sample(
                     continue
                 events.append((k, d, 0.0, float(drive.mean[k]), True))
                 used[j] = True
-                level = float(drive.mean[k]) - d * stop[c]
+                level = float(drive.mean[k]) - d * stop[c] if read_levels is None else float(read_levels[j])
         out.append(_as_slips(events))
     return out
