@@ -5,7 +5,8 @@ noise of 1-4 % of PV's RMS on PV, OP/PV/SP only (no MV).  For every cause: how o
 named (the confusion row: the first cause named) or, not named, listed among the answers the
 report says the data cannot tell from the one given (``cannot_tell``), the median relative error of its
 parameters, how often the extended model gains on the canonical one, fs/fd error of the
-canonical and of the extended model, and CPU seconds per loop.  With ``retrain``, the same
+canonical and of the extended model, and CPU seconds per loop; ``--json`` adds each loop's row
+(``loops``: its effect, what was named and read).  With ``retrain``, the same
 loops are also quantified by ``stiction quantify``'s pipeline with the canonical models and
 with models retrained on the cause (at the middle of its range): same loops, same run.
 """
@@ -132,6 +133,13 @@ def _summary(cause: str, rows: list[dict]) -> dict:
     }
 
 
+def _loop_row(row: dict) -> dict:
+    """What one loop was and what diagnose read (the JSON's ``loops``): its hidden effect, the causes named, their
+    parameters, fs/fd true and read under the extended model with their coverage, and CPU seconds."""
+    keys = ("truth", "named", "params", "fs_fd_true", "fs_fd_ext", "covered", "gain_pct", "seconds")
+    return {k: row[k] for k in keys}
+
+
 def _pool(workers: int) -> ProcessPoolExecutor:
     # one BLAS thread per worker: the figures are CPU seconds of one core per loop
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -157,7 +165,7 @@ def bench_diagnose(
         for c in causes:
             specs = effect_loops(c, per_cause, seed + list(EFFECT_RANGES).index(c), draws=draws)
             rows = list(pool.map(partial(_one, samples=samples), specs))
-            out[c] = _summary(c, rows) | {"params": list(CATALOGUE.get(c, ()))}
+            out[c] = _summary(c, rows) | {"params": list(CATALOGUE.get(c, ())), "loops": [_loop_row(r) for r in rows]}
             if progress:
                 progress(c, out[c])
     # a deadband is an effect too: the report says every sticky valve's reading may hold one (a tie), and the

@@ -47,6 +47,9 @@ def test_the_bench_draws_other_loops_from_another_seed(capsys):
     assert main(argv) in (0, None)
     figures = json.loads(capsys.readouterr().out)
     assert figures["seed"] == 7 and figures["per_cause"]["none"]["n"] == 1
+    (row,) = figures["per_cause"]["none"]["loops"]  # each loop's own row, for reading a miss without a script
+    assert row["truth"] == {} and row["fs_fd_true"] == [effect_loops("none", 1, 7)[0].fs_pct, row["fs_fd_true"][1]]
+    assert set(row) >= {"named", "params", "fs_fd_ext", "covered", "seconds"}
 
 
 def test_the_bench_records_each_loop_over_the_samples_asked_and_refuses_too_few(capsys):
