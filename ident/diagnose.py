@@ -20,7 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from stiction.ident import checks, lattice
+from stiction.ident import checks, lattice, slow_load
 from stiction.ident.cause_fit import (
     CAUSES_FITTED_IN_FULL,
     MAX_FULL_CAUSES,
@@ -153,6 +153,9 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     linear, linear_steps = _select(fitter, Model(linear_hyp, vf_linear, ic_linear), max_causes)
     stiction_delta = float(linear.criterion - sticky.criterion)
     chosen, steps = (sticky, sticky_steps) if stiction_delta > 0 else (linear, linear_steps)
+    loaded = slow_load.named(record, chosen, steps[-1].get("external_oscillation") if steps else None)
+    if loaded is not None:  # a load slower than the cycle, turned down over one sample, earns its place over several
+        chosen, steps = loaded[0], [*steps, {"external_oscillation": loaded[1]}]
     candidates = _first_look(steps)
     candidates["deadband"] = Candidate(
         "deadband",
