@@ -42,7 +42,7 @@ def told_lag_s(record: Record) -> float:
 
 
 def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
-    ts, span = record.ts_s, record.n * record.ts_s
+    ts = record.ts_s
     if cause == "dead_time":  # fine: a fractional delay splits every slip's flow between two samples
         return ts * np.arange(0.1, 12.01, 0.1)
     if cause in ("sensor_lag", "actuator_lag"):
@@ -52,10 +52,15 @@ def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
     if cause == "process_gain":
         return np.array([1.0])
     if cause == "external_oscillation":
-        scan = np.geomspace(10 * ts, span / 2.5, 40)
+        scan = osc_scan_periods(record)
         peaks = residual_periods(record, current.fit)
         return np.unique(np.concatenate([scan, peaks[peaks >= 10 * ts]]))
     raise ValueError(cause)
+
+
+def osc_scan_periods(record: Record) -> np.ndarray:
+    """Periods [s] an external oscillation is scanned over: from ten samples to 40 % of the record."""
+    return np.geomspace(10 * record.ts_s, record.n * record.ts_s / 2.5, 40)
 
 
 def residual_periods(record: Record, vf: ValveFit, count: int = 4) -> np.ndarray:

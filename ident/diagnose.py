@@ -154,7 +154,7 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
     stiction_delta = float(linear.criterion - sticky.criterion)
     chosen, steps = (sticky, sticky_steps) if stiction_delta > 0 else (linear, linear_steps)
     loaded = slow_load.named(record, chosen, steps[-1].get("external_oscillation") if steps else None)
-    if loaded is not None:  # a load slower than the cycle, turned down over one sample, earns its place over several
+    if loaded is not None:  # a slow load, turned down over one sample, earned its place over several
         chosen, steps = loaded[0], [*steps, {"external_oscillation": loaded[1]}]
     candidates = _first_look(steps)
     candidates["deadband"] = Candidate(

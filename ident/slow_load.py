@@ -26,6 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from stiction.ident.cause_fit import osc_scan_periods
 from stiction.ident.fit import criterion, refit
 from stiction.ident.friction import load_amplitude_pct
 from stiction.ident.models import MARGIN, Candidate, Model
@@ -72,7 +73,7 @@ def _criterion_over_horizon(longer: Record, hyp, slips) -> float:
 
 def scan(record: Record, chosen: Model, also: tuple[float, ...] = ()) -> tuple[float, float]:
     """(period, its criterion less the chosen model's) of the best sine load over ``HORIZON`` samples, with the
-    chosen model's slips: periods from ten samples to 40 % of the record (``ident.cause_fit``'s grid, and ``also``),
+    chosen model's slips: the periods ``ident.cause_fit.osc_scan_periods`` scans, and ``also``,
     none within ``CYCLE_GUARD`` of the loop's cycle, the best refined in steps of 1 %."""
     longer = replace(record, horizon=HORIZON)
     hyp, slips = chosen.hypothesis, chosen.fit.slips
@@ -89,8 +90,7 @@ def scan(record: Record, chosen: Model, also: tuple[float, ...] = ()) -> tuple[f
         i = int(np.argmin(c))
         return periods[i], c[i] - base
 
-    span = record.n * record.ts_s
-    period, delta = best_of([*np.geomspace(10 * record.ts_s, span / 2.5, 40), *also])
+    period, delta = best_of([*osc_scan_periods(record), *also])
     if np.isfinite(period):
         period, delta = min((period, delta), best_of(period * (1 + np.arange(-4, 5) / 100)), key=lambda x: x[1])
     return period, delta
@@ -99,7 +99,7 @@ def scan(record: Record, chosen: Model, also: tuple[float, ...] = ()) -> tuple[f
 def named(record: Record, chosen: Model, turned_down: Candidate | None) -> tuple[Model, Candidate] | None:
     """The chosen model with the best slow load (``scan``; the period of ``turned_down``, the last step's
     external-oscillation candidate, among those tried) and its candidate, where the load earns its parameters over
-    ``HORIZON`` samples; else None."""
+    ``HORIZON`` samples and cuts PV's simulated error to ``ERROR_SHARE`` of the chosen model's or less; else None."""
     hyp = chosen.hypothesis
     if hyp.linear_valve or hyp.osc_period_s or (turned_down is not None and turned_down.accepted):
         return None
@@ -119,13 +119,14 @@ def named(record: Record, chosen: Model, turned_down: Candidate | None) -> tuple
         chosen, hypothesis=loaded, fit=fit, criterion=float(criterion(fit.rss, fit.n_params, record.n_fit)),
         causes=(*chosen.causes, "external_oscillation"), load_amplitude_pct=amplitude,
     )  # fmt: skip
-    if not model.error_pct(record) <= ERROR_SHARE * chosen.error_pct(record):
+    error_pct = model.error_pct(record)  # PV simulated from OP: the costliest figure here, read once
+    if not error_pct <= ERROR_SHARE * chosen.error_pct(record):
         return None
     one_sample = model.criterion - chosen.criterion
     note = (f"named on PV's change over {HORIZON} samples, where a slow load stands out of the noise "
             f"({delta:+.1f}); over {record.horizon} sample(s) it reads {one_sample:+.1f}")  # fmt: skip
     cand = Candidate(
         "external_oscillation", {"osc_period_s": float(period_s), "osc_amplitude_pct": amplitude},
-        model.error_pct(record), model.criterion, delta, accepted=True, note=note,
+        error_pct, model.criterion, delta, accepted=True, note=note,
     )  # fmt: skip
     return model, cand
