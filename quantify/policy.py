@@ -97,15 +97,15 @@ def widened(name: str, estimate) -> tuple:
     return fs, fd, fs_se * k_fs, fd_se * k_fd
 
 
-BAND_CALLS_MAX_SE_PCT = 1.0
-"""The band's call needs a reading within this standard error (fs and fd, % of 500 lbf): more than the trust a
-number needs to be shown (``SEGMENTED_MAX_SE_PCT``, 0.5 when this was chosen), since the call asks less of it,
-a band far from zero, not its size. Healthy canonical valves read fs - 2 se at most 12.7 whatever this cap
-from 0.5 to 2 (3,600 loops under sine, filtered square and filtered triangle loads, seeds 4242-4244); at 1.0
-instead of 0.5 the slips read such a band on 1,263 instead of 1,113 of 1,600 sticky random loops (seeds
-881-884), and the verdict calls 98.9 instead of 98.6 % of them (the detector calls most of the others
-already). One loop of N1-N10 that the canonical model trained on square loads lets go (fs 99.3 +- 0.52) was
-seen before choosing."""
+BAND_CALLS_MAX_SE_PCT = float("inf")
+"""No cap on the reading's standard error for the band's call since 2026-11-26: the call asks fs - 2 se > 15, which a
+wide error already makes harder.  Until then 1.0 (0.5 before 2026-11-26, morning), which turned down sticky
+loops whose slips read fs 45-90 with errors of 1-3 (noisy output, big bands: the loops the verdict called
+other_cause at p 0.25-0.48 and every reading had to withhold).  Chosen on random loops of seeds 7001-7004
+(1,600 sticky) and healthy ones of seeds 4242-4244 under sine, square and triangle loads and seed 99 under the
+thesis's disturbances (4,000): with no cap the band's call reaches 24 of the 32 sticky loops the verdict missed,
+and no healthy loop more at any cap from 1 to none (the healthy readings that come near 15 have errors under
+0.6).  ``stiction bench accuracy``'s sets were judged after."""
 
 
 def band_read(phys, level: np.ndarray) -> np.ndarray:

@@ -450,6 +450,26 @@ def test_a_level_loop_whose_slips_read_a_band_is_sticky_whatever_its_cycle_looks
     assert not by_band, [c.warnings for c in by_band]
 
 
+# sticky canonical valves with wide bands under heavy output noise, whose slips read the band with errors of 1-3 %
+# of 500 lbf and whose cycle the detector left at p 0.25-0.48: random loops of seeds 7001 and 7002 (the design set
+# of quantify.policy.BAND_CALLS_MAX_SE_PCT)
+NOISY_SLIPS = ((7001, 13), (7001, 138), (7001, 248), (7001, 270), (7002, 58), (7002, 109), (7002, 147), (7002, 174))
+
+
+def test_a_wide_band_read_from_noisy_slips_is_called_though_its_errors_are_wide(quantifier):
+    """Hidden effect: under heavy noise the slips read a wide band (fs 45-120) with errors of 1-3; a band that far
+    from zero is the valve's own evidence however wide its error, and those loops are called and read."""
+    from stiction.sim.grid import random_loops
+
+    specs = [random_loops(index + 1, seed)[index] for seed, index in NOISY_SLIPS]
+    r = simulate(specs).kept()
+    reports = quantifier.quantify([Window(f"w{i}", r.op[i], r.pv[i], process="level") for i in range(len(specs))])
+    by_slips = [rep for rep in reports if any(w.startswith("stiction: the valve's slips read fs") for w in rep.warnings)]
+    assert len(by_slips) >= 6, [(rep.verdict, rep.stiction_probability) for rep in reports]
+    read = [(rep.fs_pct, rep.fs_se_pct, spec.fs_pct) for rep, spec in zip(reports, specs, strict=True)]
+    assert sum(fs is not None and abs(fs - true) < max(3 * se, 5) for fs, se, true in read) >= 6, read
+
+
 @pytest.mark.parametrize("shape", ["square", "triangle"])
 def test_a_healthy_level_loop_under_an_upstream_loops_square_or_triangle_cycle_is_left_alone(quantifier, shape):
     """Hidden effect: the load an upstream sticky valve sends (a square or triangle wave through a lag) makes a
