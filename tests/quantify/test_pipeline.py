@@ -464,7 +464,7 @@ def test_a_wide_band_read_from_noisy_slips_is_called_though_its_errors_are_wide(
     specs = [random_loops(index + 1, seed)[index] for seed, index in NOISY_SLIPS]
     r = simulate(specs).kept()
     reports = quantifier.quantify([Window(f"w{i}", r.op[i], r.pv[i], process="level") for i in range(len(specs))])
-    by_slips = [rep for rep in reports if any(w.startswith("stiction: the valve's slips read fs") for w in rep.warnings)]
+    by_slips = [r for r in reports if any(w.startswith("stiction: the valve's slips read fs") for w in r.warnings)]
     assert len(by_slips) >= 6, [(rep.verdict, rep.stiction_probability) for rep in reports]
     read = [(rep.fs_pct, rep.fs_se_pct, spec.fs_pct) for rep, spec in zip(reports, specs, strict=True)]
     assert sum(fs is not None and abs(fs - true) < max(3 * se, 5) for fs, se, true in read) >= 6, read
