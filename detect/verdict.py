@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import minimize
 
 from stiction.detect.features import NAMES, Evidence
 
@@ -115,6 +114,8 @@ def fit_logistic(
     if left_out is not None:
         bounds = [(0.0, 0.0) if out else (None, None) for out in np.asarray(left_out, bool) for _ in range(c)]
         bounds += [(None, None)] * c
+    from scipy.optimize import minimize  # training only: an agent that predicts need not hold scipy.optimize (50 MB)
+
     result = minimize(loss, np.zeros(f * c + c), jac=True, method="L-BFGS-B", bounds=bounds)
     theta = result.x
     return Logistic(classes, mean, scale, theta[: f * c].reshape(f, c), theta[f * c :])
