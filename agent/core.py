@@ -95,6 +95,12 @@ class _Loop:
         return sum(min(s + n, w.next_seq) - max(s, start) for s, n in self.filled)
 
 
+def _tail(batch: SampleBatch, head: int) -> SampleBatch:
+    """``batch`` without its first ``head`` samples."""
+    cut = {c: v[head:] for c in ("op", "pv", "sp", "mv", "mode") if (v := getattr(batch, c)) is not None}
+    return batch.model_copy(update={"seq": batch.seq + head, "t0_s": batch.t0_s + head * batch.ts_s, **cut})
+
+
 class AgentCore:
     def __init__(self, agent_id: str, settings: CoreSettings = CoreSettings()):
         self.agent_id = keys.check_id(agent_id, "agent id")
@@ -193,8 +199,12 @@ class AgentCore:
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
                 state.new_since_report, state.reading = 0, None
             elif batch.seq < w.next_seq:
-                reason = "duplicate" if w.holds(batch.seq, batch.op, batch.pv) else "out_of_order"
-                return self.reject(reason, f"{loop_id} seq {batch.seq} < {w.next_seq}")
+                head = w.next_seq - batch.seq
+                if head < len(batch.op) and w.holds(batch.seq, batch.op[:head], batch.pv[:head]):
+                    batch = _tail(batch, head)  # its head repeats what a publisher's history brought: the rest is new
+                else:
+                    reason = "duplicate" if w.holds(batch.seq, batch.op, batch.pv) else "out_of_order"
+                    return self.reject(reason, f"{loop_id} seq {batch.seq} < {w.next_seq}")
             elif batch.seq > w.next_seq and batch.seq - w.next_seq <= self.settings.fill_limit:
                 self._fill(state, batch)
             elif batch.seq > w.next_seq:
@@ -247,6 +257,7 @@ class AgentCore:
         state.new_since_report = int(round(min(after, merged.count)))
         state.arrived_at = now_s
         self.history_merged += 1
+        self.samples += n  # taken in from the history: a live repeat of them is refused, not counted twice
         if not state.queued and self._is_due(state):
             state.queued = True
             self._queue.append(loop_id)

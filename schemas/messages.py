@@ -79,7 +79,10 @@ class AgentHealth(BaseModel):
     agents_alive: list[str]
     loops_seen: int
     loops_owned: int
-    samples: int
+    samples: int = Field(
+        description="samples taken into windows, live or from a publisher's history (a live repeat of a sample the "
+        "history brought is refused as a duplicate, not counted twice)"
+    )
     reports: int
     rejected: dict[str, int] = Field(description="rejected messages by reason")
     latency_p50_s: float | None = Field(description="from a window's last sample arriving to its report")
