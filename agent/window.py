@@ -15,7 +15,7 @@ REPEAT_ATOL = 1e-6
 """Held and repeated samples within this (% of span) are the same: a publisher's history rounds its values to six
 decimals (``bridge.history.DECIMALS``), and a live batch that arrives after the history holding it is a repeat,
 not other samples.  Read as other samples, an inherited window lost its first live batch (981 samples of one loop
-in two of seven ``stiction bench throughput`` runs, 2026-11-26, where a history reply met the burst that fills
+in two of nine ``stiction bench throughput`` runs, 2026-11-26, where a history reply met the burst that fills
 the windows)."""
 
 

@@ -381,6 +381,13 @@ def test_live_samples_a_publishers_history_brought_first_are_repeats_and_a_batch
     assert core.rejected["out_of_order"] == 1 and core.samples == 100
 
 
+def test_a_repeat_is_told_within_the_rounding_a_publishers_history_applies():
+    from stiction.agent.window import REPEAT_ATOL
+    from stiction.bridge.history import DECIMALS
+
+    assert 0.5 * 10.0**-DECIMALS <= REPEAT_ATOL < 1e-4  # the history's rounding, and far below any transmitter's step
+
+
 def test_a_history_that_does_not_reach_the_live_window_is_refused_and_the_window_goes_on():
     core = _core()
     key = _sharded_key("L1")
