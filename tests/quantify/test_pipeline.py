@@ -452,7 +452,7 @@ def test_a_level_loop_whose_slips_read_a_band_is_sticky_whatever_its_cycle_looks
 
 # sticky canonical valves with wide bands under heavy output noise, whose slips read the band with errors of 1-3 %
 # of 500 lbf and whose cycle the detector left at p 0.25-0.48: random loops of seeds 7001 and 7002 (the design set
-# of quantify.policy.BAND_CALLS_MAX_SE_PCT)
+# of quantify.policy.band_read's uncapped errors)
 NOISY_SLIPS = ((7001, 13), (7001, 138), (7001, 248), (7001, 270), (7002, 58), (7002, 109), (7002, 147), (7002, 174))
 
 
