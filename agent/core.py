@@ -26,7 +26,7 @@ from stiction.agent.ownership import assign, rank
 from stiction.agent.window import RollingWindow
 from stiction.quantify.window import Reading, Window
 from stiction.schemas import keys
-from stiction.schemas.messages import SampleBatch
+from stiction.schemas.messages import SAMPLE_COLUMNS, SampleBatch
 
 log = logging.getLogger(__name__)
 
@@ -97,7 +97,7 @@ class _Loop:
 
 def _tail(batch: SampleBatch, head: int) -> SampleBatch:
     """``batch`` without its first ``head`` samples."""
-    cut = {c: v[head:] for c in ("op", "pv", "sp", "mv", "mode") if (v := getattr(batch, c)) is not None}
+    cut = {c: v[head:] for c in SAMPLE_COLUMNS if (v := getattr(batch, c)) is not None}
     return batch.model_copy(update={"seq": batch.seq + head, "t0_s": batch.t0_s + head * batch.ts_s, **cut})
 
 

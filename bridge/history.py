@@ -16,9 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from stiction.schemas import keys
-from stiction.schemas.messages import MAX_BATCH_SAMPLES
+from stiction.schemas.messages import MAX_BATCH_SAMPLES, SAMPLE_COLUMNS
 
-COLUMNS = ("op", "pv", "sp", "mv", "mode")
 DECIMALS = 6
 """Decimals of the history's values (% of span): finer than the float32 the agent holds them in
 (about 4e-6 at 50 %), and the answer is built in two thirds of the time, in half the bytes."""
@@ -38,7 +37,7 @@ class _Ring:
         n = len(batch["op"])
         if self.count and (batch["seq"] != self.next_seq or batch["ts_s"] != self.ts_s):
             self.count, self.columns = 0, {}  # a gap or a new sample time: the history restarts
-        present = [c for c in COLUMNS if batch.get(c) is not None]
+        present = [c for c in SAMPLE_COLUMNS if batch.get(c) is not None]
         if self.count and set(present) != set(self.columns):
             self.count, self.columns = 0, {}  # a column came or went: keep only what every sample has
         m = min(n, self.size)

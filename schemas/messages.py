@@ -10,6 +10,8 @@ from stiction.schemas.report import SCHEMA_VERSION
 
 MAX_BATCH_SAMPLES = 3600
 """An hour of 1 s samples: larger batches are refused (split them)."""
+SAMPLE_COLUMNS = ("op", "pv", "sp", "mv", "mode")
+"""A ``SampleBatch``'s columns, one value a sample each (``op`` and ``pv`` always, the others where recorded)."""
 
 
 class SampleBatch(BaseModel):
@@ -38,7 +40,7 @@ class SampleBatch(BaseModel):
         if (len(self.pv) == n and (sp is None or len(sp) == n) and (mv is None or len(mv) == n)
                 and (mode is None or len(mode) == n)):  # fmt: skip
             return self  # checked for every message an agent receives, without a generator: the common case first
-        lengths = {name: len(x) for name in ("op", "pv", "sp", "mv", "mode") if (x := getattr(self, name)) is not None}
+        lengths = {name: len(x) for name in SAMPLE_COLUMNS if (x := getattr(self, name)) is not None}
         if len(set(lengths.values())) > 1:
             raise ValueError(f"op, pv (and sp, mv, mode) must have equal lengths, got {lengths}")
         return self
