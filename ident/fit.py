@@ -453,8 +453,8 @@ noise the criterion over the band has several, and the one lowest on the coarse 
 behind a sensor lag of 8.4 s (seed 555 of the wide draws, ``tests/ident/test_fit.py``) the coarse grid's best
 point read the band 25.7 % (fs 61.6, the truth 77.0) at -1280.6, and a fit started at the true band reached
 -1289.8 with fs 77.0; refined from the first grid's three lowest basins the search finds it.  Chosen before any
-benchmark ran (three, as ``ident.cause_fit.FULL_FITS_PER_CAUSE``); about 30 more fits a search, two to three per
-cent more CPU a loop in median."""
+benchmark ran (three, as ``ident.cause_fit.FULL_FITS_PER_CAUSE``); up to 64 more fits a full search: 3-22 % more
+CPU a loop in median on ``stiction bench diagnose --draws wide`` (docs/benchmarks.md)."""
 BASIN_APART = 0.1
 """Basins closer than this (relative band) are one: a second start beside the first refines the same minimum."""
 
