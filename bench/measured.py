@@ -24,7 +24,10 @@ def _diagnose_file(path: str) -> tuple[dict, float]:
 
     started = time.process_time()
     export = read_export(path)
-    report, _, _ = diagnose_loop(Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings)
+    # as ``stiction diagnose`` reads it: the setpoint too (the stuck-travel check reads OP's travel between its moves)
+    report, _, _ = diagnose_loop(
+        Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, sp=export.sp
+    )
     return json.loads(report.model_dump_json()), time.process_time() - started
 
 
