@@ -13,7 +13,7 @@ from stiction.ident.friction import Friction
 from stiction.ident.models import Diagnosis, Model, cause_parameters
 from stiction.ident.process import NOMINAL
 from stiction.ident.record import Record
-from stiction.ident.trust import band_doubts, stuck_travel_contradicts, with_model_error
+from stiction.ident.trust import band_doubts, stuck_travel_contradicts, with_model_error, without_uncertainty
 from stiction.ident.valve_model import ValveFit
 from stiction.schemas import diagnosis as schema
 
@@ -123,6 +123,10 @@ def diagnosis_report(
     withheld = linear or impossible_valve(f, op_range) or blocking(problems)
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
     f = _without_friction(f) if withheld else with_model_error(f)
+    unsure = None if withheld else without_uncertainty(f)
+    if unsure:
+        notes.append(unsure)
+        f, withheld = _without_friction(f), True
     if not withheld:  # a band read: does the OP travel over which PV stood still allow it?
         travel = stuck_travel(record.op_pct, record.pv_pct, sp_pct)
         contradicted = stuck_travel_contradicts(f.s_pct, f.s_se_pct, travel)

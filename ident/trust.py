@@ -42,6 +42,19 @@ def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -
     )
 
 
+def without_uncertainty(f) -> str | None:
+    """Why a band the fit reads cannot be given, or None: S or J without a standard error (a parameter held at its
+    bound, as fd at zero with the whole band read as jump, has none).  Every number a report gives has one;
+    ``ident.sizing`` turns such a reading down the same way."""
+    if not math.isfinite(f.s_pct) or (math.isfinite(f.s_se_pct) and math.isfinite(f.j_se_pct)):
+        return None
+    return (
+        f"the fit reads S {f.s_pct:.3g} % and J {f.j_pct:.3g} % of span with no standard error (a parameter held at "
+        "its bound, as fd at zero with the whole band read as jump): S and J are not separable from the process "
+        "gain in this record, and its friction numbers are withheld"
+    )
+
+
 def with_model_error(f):
     """``ident.friction.Friction`` with the model error added to its standard errors (in quadrature):
     S's by ``MODEL_ERROR_S`` S, J's by ``MODEL_ERROR_J`` S, and fs's and fd's by what those two

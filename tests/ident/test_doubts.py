@@ -51,3 +51,22 @@ def test_a_sizing_read_from_a_diagnosis_carries_its_doubts():
     assert sizing.read and len(sizing.doubts) == 1 and "cannot tell from none" in sizing.doubts[0]
     report.s_se_pct = 0.05
     assert from_report(report).doubts == ()
+
+
+def test_a_band_read_without_a_standard_error_is_withheld_with_the_reason():
+    """Every number a report gives has an uncertainty: a fit that holds a parameter at its bound (fd at zero on a
+    measured flow window, 2411FIC20102_20241226_0953 read without its setpoint) read S and J with none, and the
+    report gave them bare.  Hidden here in a real diagnosis whose S is read with its error."""
+    from dataclasses import replace
+
+    from stiction.ident.report import diagnose_loop, diagnosis_report
+    from stiction.sim.disturbance import Disturbance
+    from stiction.sim.loop import LoopSpec, simulate
+
+    r = simulate([LoopSpec(40.0, 15.0, disturbance=Disturbance("gaussian", "output", 0.01), seed=3)]).kept()
+    given, record, d = diagnose_loop("sticky", r.op[0], r.pv[0], 1.0)
+    assert given.s_pct is not None and given.s_se_pct is not None and given.j_se_pct is not None
+    nan = float("nan")
+    bare = diagnosis_report("sticky", record, replace(d, friction=replace(d.friction, s_se_pct=nan, j_se_pct=nan)))
+    assert bare.s_pct is None and bare.j_pct is None and bare.fs_pct is None
+    assert any("no standard error" in w and "withheld" in w for w in bare.warnings), bare.warnings
