@@ -133,11 +133,9 @@ def diagnosis_report(
         if contradicted:
             notes.append(contradicted)
             f = _without_friction(f)
-    base_friction = (
-        d.base_friction
-        if not (impossible_valve(d.base_friction, op_range) or blocking(problems))
-        else _without_friction(d.base_friction)
-    )
+    base = d.base_friction
+    unusable = impossible_valve(base, op_range) or blocking(problems) or without_uncertainty(base)
+    base_friction = _without_friction(base) if unusable else base
     params = cause_parameters(d.extended)
     candidates = {
         c: schema.CauseCandidate(

@@ -66,7 +66,11 @@ def test_a_band_read_without_a_standard_error_is_withheld_with_the_reason():
     r = simulate([LoopSpec(40.0, 15.0, disturbance=Disturbance("gaussian", "output", 0.01), seed=3)]).kept()
     given, record, d = diagnose_loop("sticky", r.op[0], r.pv[0], 1.0)
     assert given.s_pct is not None and given.s_se_pct is not None and given.j_se_pct is not None
+    assert given.base_friction.s_pct is not None and given.base_friction.s_se_pct is not None
     nan = float("nan")
     bare = diagnosis_report("sticky", record, replace(d, friction=replace(d.friction, s_se_pct=nan, j_se_pct=nan)))
     assert bare.s_pct is None and bare.j_pct is None and bare.fs_pct is None
     assert any("no standard error" in w and "withheld" in w for w in bare.warnings), bare.warnings
+    # the canonical model's reading beside it too (7 of 61 measured windows gave it bare)
+    bare = diagnosis_report("sticky", record, replace(d, base_friction=replace(d.base_friction, j_se_pct=nan)))
+    assert bare.s_pct is not None and bare.base_friction.s_pct is None and bare.base_friction.j_pct is None
