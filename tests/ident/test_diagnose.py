@@ -149,6 +149,22 @@ def test_a_sensor_lag_between_the_grids_points_is_found_where_the_criterion_is_j
     assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
 
 
+def test_a_dead_time_whose_first_pass_fit_ranks_far_behind_is_fitted_in_full_at_every_sample():
+    """Hidden effect: a dead time of 4.47 s (the wide draws of ``stiction bench diagnose``, seed 9001).  The
+    first-pass fits rank it sixth among the screen's local minima (-2084 against -2255 at 1.4 s), so only 1.4 s
+    was fitted in full (-2264, fs read 79.6 for 60.8); fitted in full at 4.47 s it is -2365.  The best screened
+    point of every whole sample of delay is fitted in full (``ident.cause_fit.EVERY_SAMPLE``)."""
+    from stiction.sim.grid import EFFECT_RANGES, effect_loops
+
+    spec = effect_loops("dead_time", 4, 9001 + list(EFFECT_RANGES).index("dead_time"), draws="wide")[3]
+    r = simulate([spec]).kept()
+    d = diagnose(Record(r.op[0], r.pv[0], 1.0))
+    assert d.causes and d.causes[0] == "dead_time", d.causes
+    assert cause_parameters(d.extended)["dead_time_s"] == pytest.approx(spec.extensions.dead_time_s, rel=0.1)
+    assert d.friction.fs_pct == pytest.approx(spec.fs_pct, abs=3.0)
+    assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
+
+
 @pytest.mark.parametrize("seed", [11, 12])
 def test_a_slow_load_under_the_noise_of_one_sample_is_named_from_pvs_change_over_several(seed):
     """Hidden effect: a sine load of 0.4 % at 300 s (three to four of the loop's own cycles) under 2.5 % noise.  Over
