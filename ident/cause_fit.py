@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from stiction.ident.fit import criterion, fit_valve
+from stiction.ident.fit import criterion, fit_valve, local_minima
 from stiction.ident.friction import Friction, effective_samples, load_amplitude_pct
 from stiction.ident.models import APPLY, NO_SPREAD, Model
 from stiction.ident.process import Dynamics
@@ -173,19 +173,9 @@ def screen(fitter: Fitter, cause: str, current: Model) -> Screened | None:
     return Screened(cause, grid, crit, fits)
 
 
-def _local_minima(c: np.ndarray, count: int) -> list[int]:
-    """Indices of the ``count`` lowest local minima of ``c``."""
-    if c.size == 1:
-        return [0]
-    left = np.concatenate([[np.inf], c[:-1]])
-    right = np.concatenate([c[1:], [np.inf]])
-    idx = np.flatnonzero((c <= left) & (c <= right))
-    return [int(i) for i in idx[np.argsort(c[idx])][:count]]
-
-
 def fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
     """The screening curve's best local minima, and points beside the best, fitted in full."""
-    minima = _local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
+    minima = local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
     values = [float(sc.grid[i]) for i in minima]
     if sc.cause in EVERY_SAMPLE:
         whole = np.floor(sc.grid / fitter.record.ts_s + 1e-9).astype(int)

@@ -236,6 +236,18 @@ SEARCH_GRIDS = {
 }
 
 
+def local_minima(c: np.ndarray, count: int, ties: str = "quicksort") -> list[int]:
+    """Indices of the ``count`` lowest local minima of ``c``, lowest first.  ``ties``, numpy's sort kind, orders equal
+    minima: "stable" by position (the band's search, where neighbouring bands often walk the same slips and tie);
+    the default does not promise an order (a cause's screen, as its figures were measured)."""
+    if c.size == 1:
+        return [0]
+    left = np.concatenate([[np.inf], c[:-1]])
+    right = np.concatenate([c[1:], [np.inf]])
+    idx = np.flatnonzero((c <= left) & (c <= right))
+    return [int(i) for i in idx[np.argsort(c[idx], kind=ties)][:count]]
+
+
 def criterion(rss: np.ndarray | float, n_params: np.ndarray | int, n: int) -> np.ndarray | float:
     """Schwarz's criterion (BIC) of Gaussian residuals: every parameter must buy log(n) of n log(RSS)."""
     return n * np.log(np.maximum(rss, 1e-300) / n) + n_params * np.log(n)
@@ -418,11 +430,8 @@ def _anchored_fit(
     if len(grids) > 1:
         bands, ic, _, stops, levels = first
         order = np.argsort(bands, kind="stable")
-        c = ic[order]
-        left, right = np.concatenate([[np.inf], c[:-1]]), np.concatenate([c[1:], [np.inf]])
-        minima = order[np.flatnonzero(np.isfinite(c) & (c <= left) & (c <= right))]
-        for i in minima[np.argsort(ic[minima], kind="stable")]:
-            if len(chains) >= BASINS:
+        for i in order[local_minima(ic[order], ic.size, ties="stable")]:
+            if len(chains) >= BASINS or not np.isfinite(ic[i]):
                 break
             if not any(abs(bands[i] / ch[0] - 1) < BASIN_APART for ch in chains):
                 chains.append((float(bands[i]), float(stops[i]), float(levels[i])))
