@@ -256,12 +256,9 @@ def refined(fitter: Fitter, model: Model, cause: str, current: Model) -> Model:
         if not (x0 < x < x2) or min(abs(x - x0), abs(x - x1), abs(x - x2)) < 0.01:
             break
         best = _tried(fitter, best, cause, current, float(np.exp(x)), points)
-    if cause in LOCAL_SCAN:
-        at = min(points, key=lambda p: p[2])[0]
-        for step in LOCAL_SCAN[cause]:
-            best = _tried(fitter, best, cause, current, at * (1 + step), points)
-        at = min(points, key=lambda p: p[2])[0]
-        for step in JITTER:
+    for steps in (LOCAL_SCAN[cause], JITTER) if cause in LOCAL_SCAN else ():
+        at = min(points, key=lambda p: p[2])[0]  # each scan about the best lag the one before it left
+        for step in steps:
             best = _tried(fitter, best, cause, current, at * (1 + step), points)
     own = spread(fitter.record, [(f, c) for _, f, c in points])
     return replace(best, spread=combined(current.spread, own), profile=tuple(sorted(points, key=lambda p: p[0])))
