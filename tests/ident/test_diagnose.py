@@ -133,20 +133,25 @@ def test_a_dead_time_of_one_sample_the_first_pass_misses_is_still_found():
     assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
 
 
+def _named_in_a_wide_draw(cause: str, parameter: str, seed: int, count: int, index: int, rel: float) -> None:
+    """Loop ``index`` of ``count`` drawn as ``stiction bench diagnose --draws wide --seed SEED`` draws ``cause``: the
+    cause is named first, its parameter read within ``rel``, fs and fd within 3 % of 500 lbf."""
+    from stiction.sim.grid import EFFECT_RANGES, effect_loops
+
+    spec = effect_loops(cause, count, seed + list(EFFECT_RANGES).index(cause), draws="wide")[index]
+    r = simulate([spec]).kept()
+    d = diagnose(Record(r.op[0], r.pv[0], 1.0))
+    assert d.causes and d.causes[0] == cause, d.causes
+    assert cause_parameters(d.extended)[parameter] == pytest.approx(getattr(spec.extensions, parameter), rel=rel)
+    assert d.friction.fs_pct == pytest.approx(spec.fs_pct, abs=3.0)
+    assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
+
+
 def test_a_sensor_lag_between_the_grids_points_is_found_where_the_criterion_is_jagged():
     """Hidden effect: a sensor lag of 3.7 s (the wide draws of ``stiction bench diagnose``, seed 7070) whose
     criterion over the lag is jagged: the parabola through the grid's best points settled at 3.25 s and read
     fs 93 % (the truth 61); the steps about it (``ident.cause_fit.LOCAL_SCAN``) find the lag and the band."""
-    from stiction.sim.grid import EFFECT_RANGES, effect_loops
-
-    specs = effect_loops("sensor_lag", 4, 7070 + list(EFFECT_RANGES).index("sensor_lag"), draws="wide")
-    spec = specs[3]
-    r = simulate([spec]).kept()
-    d = diagnose(Record(r.op[0], r.pv[0], 1.0))
-    assert d.causes and d.causes[0] == "sensor_lag", d.causes
-    assert cause_parameters(d.extended)["sensor_tau_s"] == pytest.approx(spec.extensions.sensor_tau_s, rel=0.15)
-    assert d.friction.fs_pct == pytest.approx(spec.fs_pct, abs=3.0)
-    assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
+    _named_in_a_wide_draw("sensor_lag", "sensor_tau_s", seed=7070, count=4, index=3, rel=0.15)
 
 
 def test_a_dead_time_whose_first_pass_fit_ranks_far_behind_is_fitted_in_full_at_every_sample():
@@ -154,15 +159,7 @@ def test_a_dead_time_whose_first_pass_fit_ranks_far_behind_is_fitted_in_full_at_
     first-pass fits rank it sixth among the screen's local minima (-2084 against -2255 at 1.4 s), so only 1.4 s
     was fitted in full (-2264, fs read 79.6 for 60.8); fitted in full at 4.47 s it is -2365.  The best screened
     point of every whole sample of delay is fitted in full (``ident.cause_fit.EVERY_SAMPLE``)."""
-    from stiction.sim.grid import EFFECT_RANGES, effect_loops
-
-    spec = effect_loops("dead_time", 4, 9001 + list(EFFECT_RANGES).index("dead_time"), draws="wide")[3]
-    r = simulate([spec]).kept()
-    d = diagnose(Record(r.op[0], r.pv[0], 1.0))
-    assert d.causes and d.causes[0] == "dead_time", d.causes
-    assert cause_parameters(d.extended)["dead_time_s"] == pytest.approx(spec.extensions.dead_time_s, rel=0.1)
-    assert d.friction.fs_pct == pytest.approx(spec.fs_pct, abs=3.0)
-    assert d.friction.fd_pct == pytest.approx(spec.fd_pct, abs=3.0)
+    _named_in_a_wide_draw("dead_time", "dead_time_s", seed=9001, count=4, index=3, rel=0.1)
 
 
 @pytest.mark.parametrize("seed", [11, 12])
