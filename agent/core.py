@@ -95,6 +95,23 @@ class _Loop:
         return sum(min(s + n, w.next_seq) - max(s, start) for s, n in self.filled)
 
 
+@dataclass(frozen=True)
+class Due:
+    """A loop due for a report, without its window: the agent builds windows a batch at a time
+    (``AgentCore.window``), not all at once.  Built together, the copies of thousands of due windows
+    (12 kB each) were freed after the reports allocated in between, and the heap kept their holes:
+    at 10,000 loops due together the agent's heap held 168 MB free of 302, 23 MB once windows were
+    built a batch at a time (RSS 526 -> 377 MB; a script outside the tree, the service's report loop
+    on a stub session)."""
+
+    loop_id: str
+    arrived_s: float
+    """When the last sample of its window arrived (the report's latency counts from it)."""
+    interpolated: int = 0
+    carry: Reading | None = None
+    defer_reading: bool = False
+
+
 def _tail(batch: SampleBatch, head: int) -> SampleBatch:
     """``batch`` without its first ``head`` samples."""
     cut = {c: v[head:] for c in SAMPLE_COLUMNS if (v := getattr(batch, c)) is not None}
@@ -295,8 +312,12 @@ class AgentCore:
 
     # reports ---------------------------------------------------------------------------------
     def due(self, now_s: float | None = None) -> list[tuple[Window, float]]:
+        """``due_loops`` with each loop's window built at once: (window, arrival time of its last sample)."""
+        return [(self.window(d), d.arrived_s) for d in self.due_loops(now_s)]
+
+    def due_loops(self, now_s: float | None = None) -> list[Due]:
         """Owned loops with enough samples (a new loop's first, partial window; then the full window)
-        and enough new samples since their last report: (window, arrival time of its last sample).
+        and enough new samples since their last report, oldest first; ``window`` builds each one's window.
 
         Friction readings (the dear part of a report) are rationed: a loop still called sticky
         carries its reading for ``estimate_every`` reports.  Due loops that want a fresh one (sticky,
@@ -319,26 +340,29 @@ class AgentCore:
             state.new_since_report = 0
             if not self.owns(loop_id) or (w.t_end_s is not None and w.t_end_s <= state.reported_to_s):
                 continue  # another agent's, or reported already by the owner that has just died
-            window = self._window(loop_id, state, interpolated=state.interpolated(), carry=state.reading)
             # a loop last called not sticky has no reading to carry and is read at once should it turn
             # sticky, outside the ration; the others want a reading when theirs is missing or stale
             if state.reading is not None and state.reading_reports >= every:
                 wanting.append((state.reading_reports, len(out)))
             elif state.reading is None and state.verdict in (None, "stiction"):
                 wanting.append((math.inf, len(out)))
-            out.append((window, state.arrived_at))
-        behind = now_s is not None and bool(out) and now_s - min(a for _, a in out) > self.settings.reading_lag_s
+            out.append(Due(loop_id, state.arrived_at, state.interpolated(), carry=state.reading))
+        behind = now_s is not None and bool(out) and now_s - min(d.arrived_s for d in out) > self.settings.reading_lag_s
         grant = -(-len(out) // every) if behind else len(wanting)
         wanting.sort(key=lambda x: -x[0])  # never read first, then the stalest
         for k, (_, i) in enumerate(wanting):
-            window, arrived = out[i]
             if k < grant:
-                window = dataclasses.replace(window, carry=None)
+                out[i] = dataclasses.replace(out[i], carry=None)
             else:
-                window = dataclasses.replace(window, defer_reading=True)
+                out[i] = dataclasses.replace(out[i], defer_reading=True)
                 self.readings_deferred += 1
-            out[i] = (window, arrived)
         return out
+
+    def window(self, due: Due) -> Window:
+        """The due loop's window, built from its samples held: valid until the next ``ingest`` or
+        ``set_agents``, which may change or drop them."""
+        extra = {"interpolated": due.interpolated, "carry": due.carry, "defer_reading": due.defer_reading}
+        return self._window(due.loop_id, self.loops[due.loop_id], **extra)
 
     def _window(self, loop_id: str, state: _Loop, **extra) -> Window:
         """The loop's samples held, as the pipeline's ``Window``."""

@@ -289,14 +289,15 @@ class AgentService:
             self.messages_received += 1
             self.core.ingest(key, payload, encoding, arrived, history)
             n += 1
-        due = self.core.due(time.monotonic())
+        due = self.core.due_loops(time.monotonic())
         now = time.thread_time()
         self._cpu_s["ingest"] += now - clock
         for i in range(0, len(due), self.settings.max_batch):
             if stop is not None and stop.is_set():
                 return False
             in_pipeline = sum(self.quantifier.cpu_s.values())
-            self._report(due[i : i + self.settings.max_batch])
+            # each batch's windows built as it is quantified: copies of every due window at once fragment the heap
+            self._report([(self.core.window(d), d.arrived_s) for d in due[i : i + self.settings.max_batch]])
             self._drain()  # the channels are short between batches: a sample held there pins Zenoh's buffer
             later = time.thread_time()
             self._cpu_s["publish"] += later - now - (sum(self.quantifier.cpu_s.values()) - in_pipeline)
