@@ -100,9 +100,11 @@ class Due:
     """A loop due for a report, without its window: the agent builds windows a batch at a time
     (``AgentCore.window``), not all at once.  Built together, the copies of thousands of due windows
     (12 kB each) were freed after the reports allocated in between, and the heap kept their holes:
-    at 10,000 loops due together the agent's heap held 168 MB free of 302, 23 MB once windows were
-    built a batch at a time (RSS 526 -> 377 MB; a script outside the tree, the service's report loop
-    on a stub session)."""
+    with 10,000 loops due in one pass the agent's heap held 168 MB free of 302, 23 MB once windows
+    were built a batch at a time (RSS 526 -> 377 MB; a script outside the tree, the service's report
+    loop on a stub session).  A pass has that many due only when the agent ingests a backlog whole
+    (``agent.service.BACKLOG_MESSAGES``); keeping up, it ingests a thousand messages a pass and the
+    throughput bench's peak RSS did not move (docs/scaling.md)."""
 
     loop_id: str
     arrived_s: float
