@@ -13,6 +13,13 @@ from pathlib import Path
 
 from stiction.schemas.errors import InputError
 
+SHARED_MEMORY = False
+"""Zenoh's shared-memory transport, in the configuration made without a file.  On, every process that
+sends a message over 3 kB (a publisher's history reply, a large batch) maps a pool of 16 MB in /dev/shm and
+touches all of it: 16 MB of an agent's RSS at 10,000 loops (its smaps, 2026-11-26), for messages of a few
+kB that loopback TCP carries as well; and a container's /dev/shm is 64 MB by default.  A configuration file
+(``--config``) decides for itself."""
+
 
 def free_loopback_port() -> int:
     """A TCP port on 127.0.0.1 that nothing listens on now (for Zenoh, or an OPC UA server in tests)."""
@@ -38,6 +45,7 @@ def build(listen: list[str] | None = None, connect: list[str] | None = None, con
         cfg = zenoh.Config()
         cfg.insert_json5("mode", '"peer"')
         cfg.insert_json5("scouting/multicast/enabled", "false")
+        cfg.insert_json5("transport/shared_memory/enabled", json.dumps(SHARED_MEMORY))
         if not listen and not connect:
             listen = [free_loopback_endpoint()]
     try:

@@ -1,0 +1,50 @@
+"""Our Zenoh sessions map no shared-memory pool: a 16 MB pool in /dev/shm for each process that sends a few
+kB at once was an agent's RSS for nothing loopback TCP does not carry as well (``SHARED_MEMORY``)."""
+
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+
+from stiction.bridge.zenoh_session import build, free_loopback_endpoint, open_session
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/maps")
+
+
+def _zenoh_pools() -> list[str]:
+    return [line for line in Path("/proc/self/maps").read_text().splitlines() if line.endswith(".zenoh")]
+
+
+def _send_large(cfg_a, cfg_b) -> None:
+    """``a`` puts 20 kB that ``b`` receives."""
+    a = open_session(cfg_a)
+    b = open_session(cfg_b)
+    got = threading.Event()
+    sub = b.declare_subscriber("test/shm/x", lambda s: got.set())
+    try:
+        for _ in range(50):  # until the two peers have met
+            a.put("test/shm/x", b"x" * 20_000)
+            if got.wait(0.1):
+                break
+        assert got.is_set()
+    finally:
+        sub.undeclare()
+        a.close()
+        b.close()
+
+
+def test_a_large_message_maps_no_shared_memory_and_a_config_file_decides_for_itself(tmp_path):
+    before = _zenoh_pools()
+    here = free_loopback_endpoint()
+    _send_large(build(listen=[here]), build(connect=[here]))
+    assert _zenoh_pools() == before
+
+    there = free_loopback_endpoint()
+    files = {}
+    for role, endpoints in (("listen", there), ("connect", there)):
+        files[role] = tmp_path / f"{role}.json5"
+        text = '{mode: "peer", scouting: {multicast: {enabled: false}}, ROLE: {endpoints: ["END"]}}'
+        files[role].write_text(text.replace("ROLE", role).replace("END", endpoints))
+    _send_large(build(config_file=files["listen"]), build(config_file=files["connect"]))
+    assert len(_zenoh_pools()) > len(before)  # Zenoh's default, kept where a file says nothing of it
