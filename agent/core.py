@@ -56,7 +56,7 @@ class CoreSettings:
 
     reading_lag_s: float = 0.15
     """While the oldest due window has waited longer than this for its report, the agent is behind:
-    fresh friction readings are rationed (``due``).  An agent that keeps up reads every one."""
+    fresh friction readings are rationed (``due_loops``).  An agent that keeps up reads every one."""
 
     @property
     def fill_limit(self) -> int:
@@ -81,7 +81,7 @@ class _Loop:
     reported_to_s: float = -math.inf
     """End of the latest window of this loop reported by any agent (seen on the key space)."""
     queued: bool = False
-    """In the core's queue of due loops: ``due`` looks at these only, not at every loop held."""
+    """In the core's queue of due loops: ``due_loops`` looks at these only, not at every loop held."""
     sharded: bool = False
     """Its samples come on its shard's key: only the shard's owner holds it."""
 
@@ -313,10 +313,6 @@ class AgentCore:
         return min(first, self.settings.window_samples)
 
     # reports ---------------------------------------------------------------------------------
-    def due(self, now_s: float | None = None) -> list[tuple[Window, float]]:
-        """``due_loops`` with each loop's window built at once: (window, arrival time of its last sample)."""
-        return [(self.window(d), d.arrived_s) for d in self.due_loops(now_s)]
-
     def due_loops(self, now_s: float | None = None) -> list[Due]:
         """Owned loops with enough samples (a new loop's first, partial window; then the full window)
         and enough new samples since their last report, oldest first; ``window`` builds each one's window.

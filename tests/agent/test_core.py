@@ -24,6 +24,11 @@ def _payload(seq, n=10, loop_id="L1", **kw):
     return json.dumps(body).encode()
 
 
+def _due(core, now_s=None):
+    """The windows due, each built as the agent builds a batch's: (window, arrival of its last sample)."""
+    return [(core.window(d), d.arrived_s) for d in core.due_loops(now_s)]
+
+
 def _core(**kw):
     return AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=20, **kw))
 
@@ -44,14 +49,14 @@ def test_window_due_once_full_and_then_every_report_interval():
     core = _core()
     for seq in range(0, 90, 10):
         core.ingest(KEY, _payload(seq), JSON, float(seq))
-    assert core.due() == []
+    assert _due(core) == []
     core.ingest(KEY, _payload(90), JSON, 90.0)
-    due = core.due()
+    due = _due(core)
     assert len(due) == 1 and due[0][0].op[-1] == 99 and due[0][1] == 90.0
     core.ingest(KEY, _payload(100), JSON, 100.0)
-    assert core.due() == []
+    assert _due(core) == []
     core.ingest(KEY, _payload(110), JSON, 110.0)
-    assert len(core.due()) == 1
+    assert len(_due(core)) == 1
 
 
 @pytest.mark.parametrize(
@@ -108,14 +113,14 @@ def test_a_new_loop_reports_a_partial_window_first_then_grows_to_the_full_one():
     core = AgentCore("a1", settings)
     for seq in range(0, 110, 10):
         core.ingest(KEY, _payload(seq), JSON, float(seq))
-    assert core.due() == []  # 110 samples: not yet
+    assert _due(core) == []  # 110 samples: not yet
     core.ingest(KEY, _payload(110), JSON, 110.0)
-    (first, _), *rest = core.due()
+    (first, _), *rest = _due(core)
     assert not rest and len(first.op) == 120 and first.full_samples == 300
     sizes = []
     for seq in range(120, 400, 10):
         core.ingest(KEY, _payload(seq), JSON, float(seq))
-        sizes += [len(w.op) for w, _ in core.due()]
+        sizes += [len(w.op) for w, _ in _due(core)]
     assert sizes == [170, 220, 270, 300, 300]  # every 50 new samples, the window never beyond 300
 
 
@@ -143,7 +148,7 @@ def test_first_reports_of_loops_started_together_are_spread_over_the_report_inte
         for i in range(300):
             lid = f"L{i}"
             core.ingest(f"stiction/demo/loop/{lid}/samples", _payload(seq, loop_id=lid), JSON, 0.0)
-        for w, _ in core.due():
+        for w, _ in _due(core):
             first_at.setdefault(w.loop_id, len(w.op))
     assert len(first_at) == 300
     sizes = np.array(list(first_at.values()))
@@ -166,7 +171,7 @@ def test_after_the_owner_dies_the_replica_reports_every_interval_exactly_once():
             for core in (a, b) if seq < 500 else (b,):
                 core.ingest(f"stiction/demo/loop/{lid}/samples", payload, JSON, 0.0)
         for core in (a, b) if seq < 500 else (b,):
-            for w, _ in core.due():
+            for w, _ in _due(core):
                 reported[w.loop_id].append(w.op[-1])  # the window's last sample names the interval
     for lid, ends in reported.items():
         steps = np.diff(ends)
@@ -177,12 +182,12 @@ def test_the_due_window_carries_the_streamed_setpoint():
     core = _core()
     for seq in range(0, 100, 10):
         core.ingest(KEY, _payload(seq, sp=[float(seq)] * 10), JSON, 0.0)
-    (w, _), *_ = core.due()
+    (w, _), *_ = _due(core)
     np.testing.assert_array_equal(w.sp, np.repeat(np.arange(0, 100, 10), 10).astype(np.float32))
     plain = _core()
     for seq in range(0, 100, 10):
         plain.ingest(KEY, _payload(seq), JSON, 0.0)
-    assert plain.due()[0][0].sp is None
+    assert _due(plain)[0][0].sp is None
 
 
 def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports():
@@ -196,7 +201,7 @@ def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports()
         while True:
             core.ingest(KEY, _payload(seq), JSON, float(seq))
             seq += 10
-            due = core.due()
+            due = _due(core)
             if due:
                 return due[0][0]
 
@@ -230,7 +235,7 @@ def test_fresh_readings_are_rationed_while_the_agent_is_behind_never_read_ones_f
     def pass_(start, now_s):
         for lid in loops:
             core.ingest(f"stiction/demo/loop/{lid}/samples", _payload(start, n=100, loop_id=lid), JSON, 10.0 * start)
-        return {w.loop_id: w for w, _ in core.due(now_s)}
+        return {w.loop_id: w for w, _ in _due(core, now_s)}
 
     due = pass_(0, now_s=0.2)  # every loop due at once, but the agent keeps up: every reading made
     assert len(due) == 100 and not any(w.defer_reading or w.carry for w in due.values())
@@ -268,7 +273,7 @@ def test_due_from_the_queue_equals_a_scan_of_every_loop():
                 for lid, st in core.loops.items()
                 if st.window.count >= st.first_at and st.new_since_report >= core.settings.report_every_samples
             }
-            assert {w.loop_id for w, _ in core.due()} == scan
+            assert {w.loop_id for w, _ in _due(core)} == scan
             reported += len(scan)
     assert reported > 50
 
@@ -282,14 +287,14 @@ def test_a_replica_taking_over_late_does_not_report_a_window_the_dead_owner_had_
     for seq in range(0, 100, 10):
         for core in (a, b):
             core.ingest(key, _payload(seq, loop_id=loop), JSON, float(seq))
-    ((window, _),) = a.due()  # the owner reports the window ending at 99 ...
+    ((window, _),) = _due(a)  # the owner reports the window ending at 99 ...
     report = json.dumps({"loop_id": loop, "t_end_s": window.t_end_s}).encode()
     b.seen_report(f"stiction/demo/loop/{loop}/report", report)
     b.set_agents({"b"})  # ... and dies before the replica, behind, has looked at that window
-    assert b.due() == []
+    assert _due(b) == []
     for seq in range(100, 120, 10):
         b.ingest(key, _payload(seq, loop_id=loop), JSON, float(seq))
-    ((later, _),) = b.due()  # the next window is the replica's
+    ((later, _),) = _due(b)  # the next window is the replica's
     assert later.t_end_s == window.t_end_s + 20
     b.seen_report(f"stiction/demo/loop/{loop}/report", b"not json")  # ignored, never raised
 
@@ -354,11 +359,11 @@ def test_an_inherited_loops_window_is_its_history_then_what_came_live_and_keeps_
     op, _ = core.loops["L1"].window.get()
     np.testing.assert_array_equal(op, np.arange(0, 95))  # history in front, the live samples behind
     assert core.history_merged == 1
-    assert core.due() == []  # 15 samples since the last report: not due yet (every 20)
+    assert _due(core) == []  # 15 samples since the last report: not due yet (every 20)
     core.ingest(key, _payload(95, n=4), JSON, 3.0)
-    assert core.due() == []
+    assert _due(core) == []
     core.ingest(key, _payload(99, n=1), JSON, 4.0)  # the 20th sample after t=79
-    (window, _), = core.due()
+    ((window, _),) = _due(core)
     assert window.t_end_s == 99.0 and len(window.op) == 100
 
 
