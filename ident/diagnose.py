@@ -189,11 +189,14 @@ it (% of 500 lbf): S is d wider and J stays (``tests/ident/test_diagnose.py`` sh
 def deadband_tie(read: Friction) -> list[Tie]:
     """A sticky valve's reading holds any deadband in front of it: the band read could be a narrower band
     behind play of up to S - J (fd down to zero), two standard errors of fd included.  PV is the same to the
-    last digit either way, so the tie's criterion difference is 0."""
+    last digit either way, so the tie's criterion difference is 0.  A valve read at fd = 0 with no error
+    leaves no room for play, and nothing is said."""
     if not (np.isfinite(read.fd_pct) and np.isfinite(read.s_pct)):
         return []
     fd_se = read.fd_se_pct if np.isfinite(read.fd_se_pct) else 0.0
-    widest = max(0.0, (read.fd_pct + 2 * fd_se) / DEADBAND_WIDENS_PCT)
+    widest = (read.fd_pct + 2 * fd_se) / DEADBAND_WIDENS_PCT
+    if not widest > 0:
+        return []
     return [
         Tie(
             "none",

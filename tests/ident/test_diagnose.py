@@ -4,10 +4,13 @@ Each loop is the canonical loop with one catalogue effect, a magnitude and white
 code under test is not given; diagnose sees OP and PV only.  Seeds are fixed.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from stiction.ident.diagnose import diagnose
+from stiction.ident.diagnose import DEADBAND_WIDENS_PCT, deadband_tie, diagnose
+from stiction.ident.friction import Friction as ReadFriction
 from stiction.ident.models import cause_parameters
 from stiction.ident.record import Record
 from stiction.sim.actuator import actuate
@@ -104,6 +107,16 @@ def test_a_deadband_before_a_sticky_valve_is_the_same_valve_with_a_wider_band():
     (tie,) = [t for t in d.ties if t.alternative == "deadband"]
     assert tie.delta_criterion == 0.0 and deadband <= tie.parameters["deadband_pct_high"]
     assert tie.parameters["deadband_pct_high"] == pytest.approx((fd + widen) / (widen / deadband), rel=0.2)
+
+
+def test_a_valve_read_at_fd_zero_leaves_no_room_for_play_and_no_deadband_is_offered():
+    """fd at its bound with no error: any deadband would make the valve behind it jump past its drive, so the
+    report does not offer "a deadband of up to 0 %"; the same valve with an error on fd does offer one."""
+    read = ReadFriction(3.0, 3.0, 0.2, 0.2, 40.0, 0.0, 2.0, 0.0, 12)
+    assert deadband_tie(read) == []
+    (tie,) = deadband_tie(dataclasses.replace(read, fd_se_pct=1.0))
+    assert tie.parameters["deadband_pct_high"] == pytest.approx(2.0 / DEADBAND_WIDENS_PCT)
+    assert "up to 0 %" not in tie.note
 
 
 def test_a_quantum_below_the_noise_is_named_from_the_lattice_with_its_step():
