@@ -37,7 +37,7 @@ from stiction.ident.cause_fit import (
     told_lag_s,
     widened,
 )
-from stiction.ident.friction import Friction, friction
+from stiction.ident.friction import Friction, friction, stem_path
 from stiction.ident.models import (
     APPLY,
     MARGIN,
@@ -174,7 +174,7 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
             "quantization", {} if q is None else {"quantum_pct": q}, None, None, None, note=note
         )
     read = widened(friction(chosen.fit, record), chosen.spread)
-    played = [] if chosen.hypothesis.linear_valve else deadband_tie(read)
+    played = [] if chosen.hypothesis.linear_valve else deadband_tie(read) + lag_band_tie(chosen, record, read)
     return Diagnosis(
         base, chosen, candidates, steps, friction(base.fit, record), read, stiction_delta,
         ties=ties(steps, chosen, record) + played,
@@ -206,6 +206,47 @@ def deadband_tie(read: Friction) -> list[Tie]:
             f"a deadband of up to {widest:.3g} % of OP in front of a valve with a narrower band explains PV exactly "
             f"as well: S includes any deadband, J not (fs and fd each {DEADBAND_WIDENS_PCT:.3g} % of 500 lbf "
             "lower per % of it)",
+        )
+    ]
+
+
+HELD_SAMPLES_MIN = 10
+"""Samples with the model's stem held that a stuck phase's OP ramp is read from."""
+
+
+def lag_band_tie(chosen: Model, record: Record, read: Friction) -> list[Tie]:
+    """Where an actuator lag is named with a sticky valve: the line along which the lag and the band trade.
+
+    While the stem is stuck OP ramps at some rate r (% a second), and during a ramp a first-order lag is a delay
+    of tau.  A model whose lag is tau' < tau reads the drive r (tau - tau') ahead of the true one, and to break the
+    stem where it broke and land it where it landed it needs a band and a stop each that much wider: S (band +
+    stop) reads 2 r (tau - tau') wider, J (band - stop) the same.  In a limit cycle, whose ramps are alike, the
+    criterion hardly tells the lags apart (fits at lags of 2-8 s lie within a few units, their fs 15-20 % of 500
+    lbf apart: docs/benchmarks.md), so the report gives the line, S at no lag and its slope 2 r (r the median of
+    OP's steps while the model's stem is held), which a stroke test's lag reads S off.  On the 24 actuator lags of
+    the wide draws at the bench's seed, 4242 and 9001, S read was 0.6-27 % of span off (median 2.7); on the line at
+    the true lag, 0.06-2.9 % on 23 (median 0.8), and 23 off on a lag of 8.5 s read 0.7 s beside a dead time."""
+    tau = chosen.hypothesis.actuator_tau_s
+    if chosen.hypothesis.linear_valve or not tau > 0 or not np.isfinite(read.s_pct):
+        return []
+    stem = stem_path(chosen.fit, record)
+    held = np.abs(np.diff(stem)) <= 1e-9 * max(1.0, float(np.max(np.abs(stem))))
+    if held.sum() < HELD_SAMPLES_MIN:
+        return []
+    slope = 2 * float(np.median(np.abs(np.diff(record.op_pct))[held])) / record.ts_s
+    if not slope > 0:
+        return []
+    s0 = read.s_pct + slope * tau
+    return [
+        Tie(
+            "actuator_lag",
+            "actuator_lag",
+            None,
+            {"s_pct_at_no_lag": s0, "s_pct_per_lag_s": slope},
+            f"a slower actuator or a wider band: each second of actuator lag reads as {slope:.3g} % less S (OP ramps "
+            f"{slope / 2:.3g} % a second while the valve sticks, and band and stop each follow it; J is the same), "
+            f"and a limit cycle hardly tells them apart: S {read.s_pct:.3g} % at the lag read ({tau:.3g} s) is "
+            f"about {s0:.3g} - {slope:.3g} x lag (s) at another, which a stroke test's lag reads S off",
         )
     ]
 

@@ -45,7 +45,9 @@ def _summary(path: str, r) -> str:
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"
 
-    limits = [t for t in r.cannot_tell if t.delta_criterion is None]  # the record's own limits
+    # the record's own limits: on the process type (the process line), on the lag against the band (the friction's)
+    limits = [t for t in r.cannot_tell if t.delta_criterion is None and t.alternative == "process_type"]
+    traded = [t for t in r.cannot_tell if t.delta_criterion is None and t.alternative == "actuator_lag"]
     fitted = [t for t in r.cannot_tell if t.delta_criterion is not None]
     causes = ", ".join(
         f"{c} ({', '.join(f'{k} {v:.3g}' for k, v in r.parameters.items() if k in _params(c))})" for c in r.causes
@@ -57,6 +59,7 @@ def _summary(path: str, r) -> str:
         *([f"  cannot tell: {_ties(fitted, bool(r.causes))}"] if fitted else []),
         f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
         _friction_line(r, f),
+        *(f"  S and the actuator's lag: {t.note}" for t in traded),
     ]
     if r.valve_check is not None:
         v = r.valve_check

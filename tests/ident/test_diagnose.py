@@ -17,7 +17,7 @@ from stiction.sim.actuator import actuate
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, simulate
-from stiction.sim.valve import VALVE, Friction, pct_to_lbf
+from stiction.sim.valve import VALVE, Friction, band_and_jump_pct, pct_to_lbf
 
 HIDDEN = {
     "dead_time": (Extensions(dead_time_s=2.7), 41.0, 14.0),
@@ -61,6 +61,28 @@ def test_the_hidden_cause_is_named_with_its_parameter(cause):
     if cause != "quantization":  # the rounding is read from the values, not from the valve
         assert d.friction.fs_pct == pytest.approx(fs, abs=3.0)
         assert d.friction.fd_pct == pytest.approx(fd, abs=3.0)
+
+
+def test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_trade():
+    """The known loop above: a lag of 3.5 s read as 7.4 s, and S read half the true one.  The report's line (S at
+    no lag, less twice OP's ramp rate while the valve sticks times the lag) gives S at the true lag within a
+    quarter, less than half as far off as the S read."""
+    ext, fs, fd = HIDDEN["actuator_lag"]
+    record = _record(ext, fs, fd)
+    d = diagnose(record)
+    s_true = float(band_and_jump_pct(fs, fd)[0])
+    assert abs(d.friction.s_pct - s_true) > 0.4 * s_true  # the lag misread: S off by almost half
+    (tie,) = [t for t in d.ties if t.named == t.alternative == "actuator_lag"]
+    assert tie.delta_criterion is None  # the record's limit, not a fit's tie
+    s0, slope = tie.parameters["s_pct_at_no_lag"], tie.parameters["s_pct_per_lag_s"]
+    at_truth = s0 - slope * ext.actuator_tau_s
+    assert at_truth == pytest.approx(s_true, rel=0.25)
+    assert abs(at_truth - s_true) < 0.5 * abs(d.friction.s_pct - s_true)
+    at_read = s0 - slope * d.extended.hypothesis.actuator_tau_s
+    assert at_read == pytest.approx(d.friction.s_pct)  # the line passes through the reading
+    # no actuator lag, no line
+    plain = diagnose(_record(Extensions(), fs, fd))
+    assert not [t for t in plain.ties if t.alternative == "actuator_lag"]
 
 
 @pytest.mark.parametrize("seed", [1, 2])
