@@ -13,9 +13,10 @@ import pytest
 
 from stiction.ident.cause_fit import longest_lag_s, told_lag_s
 from stiction.ident.diagnose import diagnose, ties
-from stiction.ident.models import TIE_CRITERION, Candidate
+from stiction.ident.friction import Friction as ReadFriction
+from stiction.ident.models import TIE_CRITERION, Candidate, Tie
 from stiction.ident.record import Record
-from stiction.ident.report import diagnosis_report
+from stiction.ident.report import diagnosis_report, shown_ties
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, simulate
@@ -121,3 +122,15 @@ def test_a_gain_too_close_to_the_nominal_to_name_is_reported_with_its_interval()
     (tie,) = [t for t in report.cannot_tell if t.alternative == "process_gain"]
     assert tie.parameters["gain_ratio_low"] <= truth <= tie.parameters["gain_ratio_high"]
     assert tie.parameters["gain_ratio_low"] <= 1.0 <= tie.parameters["gain_ratio_high"]
+
+
+def test_the_lags_line_is_given_only_beside_a_band_the_data_tell_from_none():
+    """The actuator lag's line trades lag against band: where S's interval of two standard errors holds 0, or no S is
+    given, there is no band to trade and the report leaves the line out; the other ties stay."""
+    line = Tie("actuator_lag", "actuator_lag", None, {"s_pct_at_no_lag": 3.7, "s_pct_per_lag_s": 0.09}, "line")
+    deadband = Tie("none", "deadband", 0.0, {"deadband_pct_high": 0.2}, "play")
+    band = ReadFriction(2.0, 0.5, 0.3, 0.2, 4.0, 3.0, 0.5, 0.5, 20)
+    assert shown_ties([line, deadband], band, withheld=False) == [line, deadband]
+    no_band = ReadFriction(0.15, 0.07, 0.08, 0.08, 0.3, 0.1, 0.2, 0.2, 20)  # 0.15 +- 0.08: holds 0
+    assert shown_ties([line, deadband], no_band, withheld=False) == [deadband]
+    assert shown_ties([line, deadband], band, withheld=True) == [deadband]
