@@ -30,6 +30,7 @@ from stiction.ident.report import diagnosis_report
 from stiction.sim.extensions import CATALOGUE
 from stiction.sim.grid import EFFECT_RANGES, effect_loops
 from stiction.sim.loop import DURATION_S, WARMUP_S, simulate
+from stiction.sim.valve import band_and_jump_pct
 
 SEED = 20261122
 
@@ -52,7 +53,15 @@ def _one(spec, samples: int | None = None) -> dict:
     truth = _truth(spec)
     ext = [_nan(rep.fs_pct), _nan(rep.fd_pct)]
     se = [_nan(rep.fs_se_pct), _nan(rep.fd_se_pct)]
+    s_true = float(band_and_jump_pct(*truth)[0])
+    lines = [t.parameters for t in rep.cannot_tell if t.named == t.alternative == "actuator_lag"]
+    lag = spec.extensions.actuator_tau_s
     return {
+        "s_true": s_true,
+        "s_read": _nan(rep.s_pct),
+        # S on the report's lag line at the true lag (ident.diagnose.lag_band_tie), where it gives one
+        "s_on_line_at_true_lag": lines[0]["s_pct_at_no_lag"] - lines[0]["s_pct_per_lag_s"] * lag if lines and lag > 0
+        else float("nan"),
         "named": list(d.causes),
         "ties": [(t.named, t.alternative, t.delta_criterion, dict(t.parameters)) for t in d.ties],
         "truth": spec.extensions.active(),
@@ -113,7 +122,18 @@ def _summary(cause: str, rows: list[dict]) -> dict:
     ]
     base, n_base = _mae(rows, "fs_fd_base")
     ext, n_ext = _mae(rows, "fs_fd_ext")
+    on_line = [r for r in rows if np.isfinite(r.get("s_on_line_at_true_lag", np.nan)) and np.isfinite(r["s_read"])]
+    read_off = [abs(r["s_read"] - r["s_true"]) for r in on_line]
+    line_off = [abs(r["s_on_line_at_true_lag"] - r["s_true"]) for r in on_line]
     return {
+        # the actuator lag's line, where the report gives one: S off as read, and on the line at the true lag
+        "lag_line": {
+            "n": len(on_line),
+            "s_read_err_median_pct": float(np.median(read_off)),
+            "s_on_line_err_median_pct": float(np.median(line_off)),
+        }
+        if on_line
+        else None,
         "n": len(rows),
         "named_share": float(np.mean(hit)),
         "cannot_tell_share": float(np.mean(tied)),
@@ -136,7 +156,8 @@ def _summary(cause: str, rows: list[dict]) -> dict:
 def _loop_row(row: dict) -> dict:
     """What one loop was and what diagnose read (the JSON's ``loops``): its hidden effect, the causes named, their
     parameters, fs/fd true and read under the extended model with their coverage, and CPU seconds."""
-    keys = ("truth", "named", "params", "fs_fd_true", "fs_fd_ext", "covered", "gain_pct", "seconds")
+    keys = ("truth", "named", "params", "fs_fd_true", "fs_fd_ext", "covered", "gain_pct", "seconds", "s_true", "s_read",
+            "s_on_line_at_true_lag")
     return {k: row[k] for k in keys}
 
 
@@ -284,6 +305,12 @@ def print_row(c: str, s: dict) -> None:
         f"first named: {first}",
         flush=True,
     )
+    if (line := s.get("lag_line")) is not None:
+        print(
+            f"{'':22s} the lag's line on {line['n']} loops: S off by {line['s_read_err_median_pct']:.2f} % of span "
+            f"as read, {line['s_on_line_err_median_pct']:.2f} % on the line at the true lag (medians)",
+            flush=True,
+        )
 
 
 def print_retrained_header() -> None:
