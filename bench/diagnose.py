@@ -59,6 +59,7 @@ def _one(spec, samples: int | None = None) -> dict:
     return {
         "s_true": s_true,
         "s_read": _nan(rep.s_pct),
+        "s_se": _nan(rep.s_se_pct),
         # S on the report's lag line at the true lag (ident.diagnose.lag_band_tie), where it gives one
         "s_on_line_at_true_lag": lines[0]["s_pct_at_no_lag"] - lines[0]["s_pct_per_lag_s"] * lag if lines and lag > 0
         else float("nan"),
@@ -131,6 +132,8 @@ def _summary(cause: str, rows: list[dict]) -> dict:
             "n": len(on_line),
             "s_read_err_median_pct": float(np.median(read_off)),
             "s_on_line_err_median_pct": float(np.median(line_off)),
+            "s_within_2se_share": float(np.mean([abs(r["s_read"] - r["s_true"]) <= 2 * r.get("s_se", np.nan)
+                                                 for r in on_line])),
         }
         if on_line
         else None,
@@ -157,7 +160,7 @@ def _loop_row(row: dict) -> dict:
     """What one loop was and what diagnose read (the JSON's ``loops``): its hidden effect, the causes named, their
     parameters, fs/fd true and read under the extended model with their coverage, and CPU seconds."""
     keys = ("truth", "named", "params", "fs_fd_true", "fs_fd_ext", "covered", "gain_pct", "seconds", "s_true", "s_read",
-            "s_on_line_at_true_lag")
+            "s_se", "s_on_line_at_true_lag")
     return {k: row[k] for k in keys}
 
 
@@ -308,7 +311,8 @@ def print_row(c: str, s: dict) -> None:
     if (line := s.get("lag_line")) is not None:
         print(
             f"{'':22s} the lag's line on {line['n']} loops: S off by {line['s_read_err_median_pct']:.2f} % of span "
-            f"as read, {line['s_on_line_err_median_pct']:.2f} % on the line at the true lag (medians)",
+            f"as read, {line['s_on_line_err_median_pct']:.2f} % on the line at the true lag (medians); S read within "
+            f"two of its errors {100 * line['s_within_2se_share']:.0f} %",
             flush=True,
         )
 

@@ -214,6 +214,19 @@ HELD_SAMPLES_MIN = 10
 """Samples with the model's stem held that a stuck phase's OP ramp is read from."""
 
 
+def lag_slope(chosen: Model, record: Record) -> float | None:
+    """How much S a second of actuator lag moves (% of span a second: twice OP's median step while the model's stem
+    is held, over the sample time; ``lag_band_tie``), or None where no actuator lag is named with a sticky valve."""
+    if chosen.hypothesis.linear_valve or not chosen.hypothesis.actuator_tau_s > 0:
+        return None
+    stem = stem_path(chosen.fit, record)
+    held = np.abs(np.diff(stem)) <= 1e-9 * max(1.0, float(np.max(np.abs(stem))))
+    if held.sum() < HELD_SAMPLES_MIN:
+        return None
+    slope = 2 * float(np.median(np.abs(np.diff(record.op_pct))[held])) / record.ts_s
+    return slope if slope > 0 else None
+
+
 def lag_band_tie(chosen: Model, record: Record, read: Friction) -> list[Tie]:
     """Where an actuator lag is named with a sticky valve: the line along which the lag and the band trade.
 
@@ -229,14 +242,8 @@ def lag_band_tie(chosen: Model, record: Record, read: Friction) -> list[Tie]:
     seeds 31 and 6161, judged after: 0.14-3.1 % off on the 12 without a dead time named beside the lag, 0.6, 16 and
     17 on the 3 with one (a second delay shares the lag's): the note says so there."""
     tau = chosen.hypothesis.actuator_tau_s
-    if chosen.hypothesis.linear_valve or not tau > 0 or not np.isfinite(read.s_pct):
-        return []
-    stem = stem_path(chosen.fit, record)
-    held = np.abs(np.diff(stem)) <= 1e-9 * max(1.0, float(np.max(np.abs(stem))))
-    if held.sum() < HELD_SAMPLES_MIN:
-        return []
-    slope = 2 * float(np.median(np.abs(np.diff(record.op_pct))[held])) / record.ts_s
-    if not slope > 0:
+    slope = lag_slope(chosen, record)
+    if slope is None or not np.isfinite(read.s_pct):
         return []
     s0 = read.s_pct + slope * tau
     rougher = (

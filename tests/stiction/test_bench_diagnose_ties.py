@@ -35,17 +35,17 @@ def test_named_loops_are_not_counted_twice_and_misses_stay_misses():
 
 def test_the_lag_line_is_summarised_where_the_report_gives_one():
     """S as read and S on the report's lag line at the true lag, medians over the loops that have a line."""
-    def lag_row(tau, named, s_true, s_read, on_line):
-        extra = {"s_true": s_true, "s_read": s_read, "s_on_line_at_true_lag": on_line}
+    def lag_row(tau, named, s_true, s_read, s_se, on_line):
+        extra = {"s_true": s_true, "s_read": s_read, "s_se": s_se, "s_on_line_at_true_lag": on_line}
         return _row({"actuator_tau_s": tau}, named, []) | extra
 
     rows = [
-        lag_row(6.0, ["actuator_lag"], 30.0, 40.0, 31.0),
-        lag_row(2.0, ["actuator_lag"], 20.0, 21.0, 20.5),
-        lag_row(3.0, ["dead_time"], 20.0, 25.0, float("nan")),  # no lag named: no line
+        lag_row(6.0, ["actuator_lag"], 30.0, 40.0, 2.0, 31.0),  # S read 10 off, its errors 2: not covered
+        lag_row(2.0, ["actuator_lag"], 20.0, 21.0, 1.0, 20.5),
+        lag_row(3.0, ["dead_time"], 20.0, 25.0, 1.0, float("nan")),  # no lag named: no line
     ]
     line = _summary("actuator_lag", rows)["lag_line"]
-    assert line == {"n": 2, "s_read_err_median_pct": 5.5, "s_on_line_err_median_pct": 0.75}
+    assert line == {"n": 2, "s_read_err_median_pct": 5.5, "s_on_line_err_median_pct": 0.75, "s_within_2se_share": 0.5}
     assert _summary("dead_time", rows[2:])["lag_line"] is None
 
 
