@@ -42,7 +42,8 @@ LAG_AGAINST_BAND = pytest.mark.xfail(
     "+- 0.23 instead of 41 and 14 (criterion 16 better; the uncertainty does not cover the truth): a longer lag and "
     "a narrower band explain PV as well (docs/benchmarks.md, the lag and the band as one finding).  Unchanged by the "
     "observer's fix of 2026-11-26.  The simulator's lagged slip withheld its flow the wrong way on downward slips "
-    "until 2026-11-24, and this loop passed on that.",
+    "until 2026-11-24, and this loop passed on that.  The report's lag line reads S at the true lag within a quarter "
+    "(test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_trade).",
 )
 
 
