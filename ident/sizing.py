@@ -86,7 +86,26 @@ def from_report(report) -> Sizing:
             "separable from the process gain in this record"
         )
         return Sizing(nan, nan, nan, nan, process, slips, why)
-    return Sizing(s, j, s_se, j_se, process, slips, doubts=tuple(band_doubts(s, s_se, process)))
+    doubts = tuple(band_doubts(s, s_se, process)) + lag_doubt(report, s, s_se)
+    return Sizing(s, j, s_se, j_se, process, slips, doubts=doubts)
+
+
+def lag_doubt(report, s_pct: float, s_se_pct: float) -> tuple[str, ...]:
+    """Where the diagnosis names an actuator lag and gives its line (``ident.diagnose.lag_band_tie``: S at no lag and
+    its slope), and the line moves S over the lag read by more than S's standard error: say so beside S, which a
+    stroke test's lag would correct.  Where it moves S less (a 10 s flow loop of the StictionGPT plant: 0.2 % over a
+    lag of 41 s, S 2.40 +- 0.49), the lag does not matter and nothing is said."""
+    lines = [t for t in report.cannot_tell if t.named == t.alternative == "actuator_lag"]
+    if not lines:
+        return ()
+    s0, slope = lines[0].parameters.get("s_pct_at_no_lag"), lines[0].parameters.get("s_pct_per_lag_s")
+    if s0 is None or not slope or not abs(s0 - s_pct) > s_se_pct:
+        return ()
+    return (
+        f"S is read under an actuator lag of {(s0 - s_pct) / slope:.3g} s, which a limit cycle hardly tells from a "
+        f"wider band: with no lag S would be {s0:.3g} %, {slope:.3g} % less for each second of lag (a stroke test's "
+        "lag reads S off this line)",
+    )
 
 
 def _why_not(report) -> str:

@@ -12,7 +12,7 @@ from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
 
 def _report(**kw):
-    base = dict(s_pct=10.0, j_pct=4.0, s_se_pct=0.1, j_se_pct=0.2, process=None, slips=6, warnings=[])
+    base = dict(s_pct=10.0, j_pct=4.0, s_se_pct=0.1, j_se_pct=0.2, process=None, slips=6, warnings=[], cannot_tell=[])
     return SimpleNamespace(**(base | kw))
 
 
@@ -90,3 +90,17 @@ def test_a_band_below_half_the_stuck_op_travel_is_contradicted(s_pct, s_se_pct, 
     why = stuck_travel_contradicts(s_pct, s_se_pct, travel_pct)
     assert (why is None) == kept
     assert kept or ("while PV stood still" in why and why.endswith("withheld"))
+
+
+def test_s_read_under_an_actuator_lag_says_where_the_lag_moves_it_more_than_its_error():
+    """The diagnosis's lag line (S at no lag, less its slope a second of lag) beside S: said where it moves S over the
+    lag read by more than S's standard error, with the lag it implies; not where the lag hardly matters."""
+
+    def line(s0, slope):
+        params = {"s_pct_at_no_lag": s0, "s_pct_per_lag_s": slope}
+        return SimpleNamespace(named="actuator_lag", alternative="actuator_lag", parameters=params)
+
+    (doubt,) = from_report(_report(s_se_pct=1.0, cannot_tell=[line(16.0, 1.5)])).doubts  # 6 % over a lag of 4 s
+    assert "actuator lag of 4 s" in doubt and "16 %" in doubt
+    assert from_report(_report(s_se_pct=1.0, cannot_tell=[line(10.2, 0.005)])).doubts == ()  # 0.2 % over 40 s
+    assert from_report(_report(s_se_pct=1.0)).doubts == ()
