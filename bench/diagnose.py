@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from stiction.ident.diagnose import DEADBAND_WIDENS_PCT, diagnose
-from stiction.ident.models import cause_parameters
+from stiction.ident.models import cause_parameters, is_lag_line
 from stiction.ident.record import Record
 from stiction.ident.report import diagnosis_report
 from stiction.sim.extensions import CATALOGUE
@@ -54,7 +54,7 @@ def _one(spec, samples: int | None = None) -> dict:
     ext = [_nan(rep.fs_pct), _nan(rep.fd_pct)]
     se = [_nan(rep.fs_se_pct), _nan(rep.fd_se_pct)]
     s_true = float(band_and_jump_pct(*truth)[0])
-    lines = [t.parameters for t in rep.cannot_tell if t.named == t.alternative == "actuator_lag"]
+    lines = [t.parameters for t in rep.cannot_tell if is_lag_line(t)]
     lag = spec.extensions.actuator_tau_s
     return {
         "s_true": s_true,
@@ -132,8 +132,7 @@ def _summary(cause: str, rows: list[dict]) -> dict:
             "n": len(on_line),
             "s_read_err_median_pct": float(np.median(read_off)),
             "s_on_line_err_median_pct": float(np.median(line_off)),
-            "s_within_2se_share": float(np.mean([abs(r["s_read"] - r["s_true"]) <= 2 * r.get("s_se", np.nan)
-                                                 for r in on_line])),
+            "s_within_2se_share": float(np.mean([abs(r["s_read"] - r["s_true"]) <= 2 * r["s_se"] for r in on_line])),
         }
         if on_line
         else None,

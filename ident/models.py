@@ -94,6 +94,12 @@ class Tie:
     note: str
 
 
+def is_lag_line(tie) -> bool:
+    """The actuator lag's line (``ident.diagnose.lag_band_tie``) among a diagnosis's ``Tie`` s or a report's
+    ``cannot_tell``: the lag named, and the same lag with another band as the alternative."""
+    return tie.named == tie.alternative == "actuator_lag"
+
+
 @dataclass(frozen=True)
 class Diagnosis:
     base: Model

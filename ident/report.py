@@ -10,10 +10,16 @@ from stiction.detect.features import stuck_travel
 from stiction.ident.cause_fit import residual_periods
 from stiction.ident.checks import blocking, data_checks, impossible_friction
 from stiction.ident.friction import Friction
-from stiction.ident.models import Diagnosis, Model, Tie, cause_parameters
+from stiction.ident.models import Diagnosis, Model, Tie, cause_parameters, is_lag_line
 from stiction.ident.process import NOMINAL
 from stiction.ident.record import Record
-from stiction.ident.trust import band_doubts, stuck_travel_contradicts, with_model_error, without_uncertainty
+from stiction.ident.trust import (
+    band_doubts,
+    holds_zero,
+    stuck_travel_contradicts,
+    with_model_error,
+    without_uncertainty,
+)
 from stiction.ident.valve_model import ValveFit
 from stiction.schemas import diagnosis as schema
 
@@ -107,8 +113,8 @@ def shown_ties(ties: list[Tie], f: Friction, withheld: bool) -> list[Tie]:
     errors holds 0 (a band the data cannot tell from none, ``ident.trust.band_doubts``), there is no band to trade
     and the line is left out (a healthy level loop cycling under a load, read as a lag of 38 s before a valve with
     a band of 0.15 +- 0.08 %, had its line give 3.7 % at no lag)."""
-    band = not withheld and math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and f.s_pct - 2 * f.s_se_pct > 0
-    return [t for t in ties if band or not (t.named == t.alternative == "actuator_lag")]
+    band = not withheld and math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and not holds_zero(f.s_pct, f.s_se_pct)
+    return [t for t in ties if band or not is_lag_line(t)]
 
 
 def diagnosis_report(

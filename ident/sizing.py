@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from stiction.ident.models import is_lag_line
 from stiction.ident.trust import band_doubts
 from stiction.schemas.diagnosis import Process
 from stiction.sim.valve import friction_pct, friction_se_pct
@@ -95,7 +96,7 @@ def lag_doubt(report, s_pct: float, s_se_pct: float) -> tuple[str, ...]:
     its slope), and the line moves S over the lag read by more than S's standard error: say so beside S, which a
     stroke test's lag would correct.  Where it moves S less (a 10 s flow loop of the StictionGPT plant: 0.2 % over a
     lag of 41 s, S 2.40 +- 0.49), the lag does not matter and nothing is said."""
-    lines = [t for t in report.cannot_tell if t.named == t.alternative == "actuator_lag"]
+    lines = [t for t in report.cannot_tell if is_lag_line(t)]
     if not lines:
         return ()
     s0, slope = lines[0].parameters.get("s_pct_at_no_lag"), lines[0].parameters.get("s_pct_per_lag_s")

@@ -80,11 +80,17 @@ too small to be the valve's (a measured flow loop read 112 with a band of 2.3 %)
 the measured windows."""
 
 
+def holds_zero(s_pct: float, s_se_pct: float) -> bool:
+    """S's interval of two standard errors holds 0: a band the data cannot tell from none (False where either is
+    not a number)."""
+    return math.isfinite(s_pct) and math.isfinite(s_se_pct) and s_pct - 2 * s_se_pct <= 0
+
+
 def band_doubts(s_pct: float, s_se_pct: float, process) -> list[str]:
     """What makes a band read doubtful though the fit gives it (``process``: a ``schemas.diagnosis.Process``):
     an interval of two standard errors that holds no band at all, and a process gain no valve loop has."""
     out = []
-    if math.isfinite(s_pct) and math.isfinite(s_se_pct) and s_pct - 2 * s_se_pct <= 0:
+    if holds_zero(s_pct, s_se_pct):
         out.append(
             f"the band S {s_pct:.3g} +- {s_se_pct:.2g} % of span: its interval of two standard errors holds "
             "0, a band the data cannot tell from none; not a valve job on this evidence alone"

@@ -42,12 +42,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _summary(path: str, r) -> str:
+    from stiction.ident.models import is_lag_line
+
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"
 
     # the record's own limits: on the process type (the process line), on the lag against the band (the friction's)
-    limits = [t for t in r.cannot_tell if t.delta_criterion is None and t.alternative == "process_type"]
-    traded = [t for t in r.cannot_tell if t.delta_criterion is None and t.alternative == "actuator_lag"]
+    limits = [t for t in r.cannot_tell if t.delta_criterion is None and not is_lag_line(t)]
+    traded = [t for t in r.cannot_tell if is_lag_line(t)]
     fitted = [t for t in r.cannot_tell if t.delta_criterion is not None]
     causes = ", ".join(
         f"{c} ({', '.join(f'{k} {v:.3g}' for k, v in r.parameters.items() if k in _params(c))})" for c in r.causes
