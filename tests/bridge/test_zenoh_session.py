@@ -48,3 +48,40 @@ def test_a_large_message_maps_no_shared_memory_and_a_config_file_decides_for_its
         files[role].write_text(text.replace("ROLE", role).replace("END", endpoints))
     _send_large(build(config_file=files["listen"]), build(config_file=files["connect"]))
     assert len(_zenoh_pools()) > len(before)  # Zenoh's default, kept where a file says nothing of it
+
+
+_THREADS = """
+import os, threading
+from stiction.bridge.zenoh_session import build, free_loopback_endpoint, open_session
+here = free_loopback_endpoint()
+a, b = open_session(build(listen=[here])), open_session(build(connect=[here]))
+got = threading.Event()
+sub = b.declare_subscriber("test/rt/x", lambda s: got.set())
+for _ in range(50):
+    a.put("test/rt/x", b"x")
+    if got.wait(0.1):
+        break
+assert got.is_set()
+print(" ".join(open(f"/proc/self/task/{t}/comm").read().strip() for t in os.listdir("/proc/self/task")))
+sub.undeclare()
+a.close()
+b.close()
+"""
+
+
+def _zenoh_threads(env: dict) -> set[str]:
+    """The kinds of Zenoh's threads (``rx``, ``app``, ...) in a process whose two sessions exchanged a message."""
+    import os
+    import subprocess
+
+    base = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"}
+    out = subprocess.run([sys.executable, "-c", _THREADS], env=base | env, capture_output=True, text=True, timeout=60,
+                         check=True).stdout  # fmt: skip
+    return {name.rsplit("-", 1)[0] for name in out.split() if "-" in name}
+
+
+def test_zenoh_receives_on_the_application_runtime_unless_the_environment_says_otherwise():
+    ours = _zenoh_threads({})
+    assert "app" in ours and not ours & {"rx", "acc"}  # one worker thread, not three more with arenas of their own
+    theirs = _zenoh_threads({"ZENOH_RUNTIME": "(rx: (worker_threads: 1))"})
+    assert "rx" in theirs  # a user's setting is kept
