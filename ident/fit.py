@@ -425,18 +425,17 @@ def _anchored_fit(
     tried(*first)
     # the finer grids refine the first grid's best basin and the next best ones (``BASINS``): under noise the
     # band's criterion has several, and the best on the coarse grid need not hold the best fit
-    chains = [(winner[0], winner[2], winner[3]) if np.isfinite(winner[0]) else centres[0]]
-    chain_ic = [min(tried_ic)]
+    # each basin: its centre (band, stop, level) and its criterion there
+    basins = [((winner[0], winner[2], winner[3]) if np.isfinite(winner[0]) else centres[0], min(tried_ic))]
     if len(grids) > 1:
         bands, ic, _, stops, levels = first
         order = np.argsort(bands, kind="stable")
         for i in order[local_minima(ic[order], ic.size, ties="stable")]:
-            if len(chains) >= BASINS or not np.isfinite(ic[i]):
+            if len(basins) >= BASINS or not np.isfinite(ic[i]):
                 break
-            if not any(abs(bands[i] / ch[0] - 1) < BASIN_APART for ch in chains):
-                chains.append((float(bands[i]), float(stops[i]), float(levels[i])))
-                chain_ic.append(float(ic[i]))
-    for centre, centre_ic in zip(chains, chain_ic, strict=True):
+            if not any(abs(bands[i] / centre[0] - 1) < BASIN_APART for centre, _ in basins):
+                basins.append(((float(bands[i]), float(stops[i]), float(levels[i])), float(ic[i])))
+    for centre, centre_ic in basins:
         for grid in grids[1:]:
             fits = evaluate([centre], grid)
             tried(*fits)
