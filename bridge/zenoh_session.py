@@ -74,12 +74,22 @@ def build(listen: list[str] | None = None, connect: list[str] | None = None, con
 
 
 def open_session(cfg, endpoints: str = ""):
-    """``zenoh.open`` with its errors (bad endpoint, port in use, ...) as one-line input errors."""
+    """``zenoh.open`` with its errors (bad endpoint, port in use, ...) as one-line input errors; a
+    ``ZENOH_RUNTIME`` Zenoh cannot read (it panics) is named as such."""
     import zenoh
 
+    where = f" ({endpoints})" if endpoints else ""
     try:
         return zenoh.open(cfg)
     except zenoh.ZError as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        where = f" ({endpoints})" if endpoints else ""
         raise InputError(f"cannot open a Zenoh session{where}: {first.split(' at /')[0]}") from None
+    except BaseException as e:  # Zenoh's Rust panics arrive as pyo3's PanicException, a BaseException
+        if type(e).__name__ != "PanicException":
+            raise
+        runtime = os.environ.get("ZENOH_RUNTIME", "")
+        said = str(e).strip().splitlines()[0][:200] if str(e).strip() else "a panic"
+        if runtime != RUNTIME and runtime:
+            raise InputError(f"cannot open a Zenoh session{where}: ZENOH_RUNTIME={runtime!r} is not a runtime "
+                             f"setting Zenoh reads ({said})") from None  # fmt: skip
+        raise InputError(f"cannot open a Zenoh session{where}: Zenoh failed ({said})") from None

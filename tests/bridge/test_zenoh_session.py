@@ -85,3 +85,18 @@ def test_zenoh_receives_on_the_application_runtime_unless_the_environment_says_o
     assert "app" in ours and not ours & {"rx", "acc"}  # one worker thread, not three more with arenas of their own
     theirs = _zenoh_threads({"ZENOH_RUNTIME": "(rx: (worker_threads: 1))"})
     assert "rx" in theirs  # a user's setting is kept
+
+
+def test_a_runtime_setting_zenoh_cannot_read_is_one_error_that_names_it():
+    """Zenoh panics on a ``ZENOH_RUNTIME`` it cannot parse; the user reads which variable was wrong."""
+    import os
+    import subprocess
+
+    code = (
+        "from stiction.bridge.zenoh_session import build, open_session\n"
+        "from stiction.schemas.errors import InputError\n"
+        "try:\n    open_session(build())\nexcept InputError as e:\n    print(e)\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"} | {"ZENOH_RUNTIME": "(rx: (bogus: 1))"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60).stdout
+    assert out.startswith("cannot open a Zenoh session: ZENOH_RUNTIME='(rx: (bogus: 1))' is not a runtime setting")
