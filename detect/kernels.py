@@ -59,6 +59,49 @@ def regularity(crossings):
     return (mean / (3.0 * sd) if sd > 0 else np.inf), mean
 
 
+ROUNDING_SD = math.sqrt(2.0 / 12.0)
+"""The least spread of periods (samples) a record can tell: each zero crossing is placed to a sample, so a period,
+the difference of two crossings, carries two roundings of sd 1/sqrt(12) each (``robust_regularity``)."""
+
+
+@njit(cache=True, nogil=True)
+def robust_regularity(crossings):
+    """(r, mean period) as ``regularity``, but ``r = median / (3 * spread)`` with the spread the periods' median
+    absolute deviation times 1.4826 (their standard deviation where they are normal), at least ``ROUNDING_SD``
+    (0 and nan under three half periods)."""
+    m = crossings.size - 2
+    if crossings.size < 4:
+        return 0.0, np.nan
+    periods = np.empty(m)
+    for i in range(m):
+        periods[i] = float(crossings[i + 2] - crossings[i])
+    middle = np.median(periods)
+    spread = max(1.4826 * np.median(np.abs(periods - middle)), ROUNDING_SD)
+    return middle / (3.0 * spread), periods.mean()
+
+
+@njit(cache=True, nogil=True)
+def swing_spread(y, crossings):
+    """How much the half cycles' swings differ: the median absolute deviation of each half cycle's 90th percentile
+    of ``|y|`` (over ``y[a..b]``, both ends, numpy's linear rule) times 1.4826, over their median; nan without a
+    half cycle or where the median is 0."""
+    n_half = crossings.size - 1
+    swings = np.empty(max(n_half, 0))
+    for h in range(n_half):
+        a, b = crossings[h], crossings[h + 1]
+        v = np.sort(np.abs(y[a : b + 1]))
+        pos = 0.9 * (b - a)
+        lo = int(math.floor(pos))
+        hi = min(lo + 1, b - a)
+        swings[h] = v[lo] + (v[hi] - v[lo]) * (pos - lo)
+    if n_half <= 0:
+        return np.nan
+    middle = np.median(swings)
+    if not middle > 0:
+        return np.nan
+    return 1.4826 * np.median(np.abs(swings - middle)) / middle
+
+
 @njit(cache=True, nogil=True)
 def half_cycle_peaks(y, crossings):
     """Median over half cycles ``[a, b)`` of the 90th percentile (numpy's linear rule) of ``|y|``;

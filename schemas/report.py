@@ -64,7 +64,8 @@ class StictionReport(BaseModel):
         "tuning, quantization, noise); a valve's deadband is stiction (stiction_kind), not another cause"
     )
     regularity: float | None = Field(
-        description="regularity of the oscillation's zero crossings (Thornhill 2003): > 1.5 a regular oscillation"
+        description="regularity of the oscillation's zero crossings (Thornhill 2003; for a cycle of steady swing "
+        "also read by the periods' median): > 1.5 a regular oscillation"
     )
     amplitude_pct: float | None = Field(
         description="half the typical peak-to-peak swing of the control error (PV where no setpoint), % of span"

@@ -50,6 +50,26 @@ def regularity(crossings):
     return (mean / (3 * sd) if sd > 0 else np.inf), mean
 
 
+def robust_regularity(crossings):
+    """(r, mean period) by the periods' median and median absolute deviation, the spread at least sqrt(2/12)."""
+    intervals = np.diff(np.asarray(crossings)).astype(float)
+    if intervals.size < 3:
+        return 0.0, float("nan")
+    periods = intervals[1:] + intervals[:-1]
+    middle = float(np.median(periods))
+    spread = max(1.4826 * float(np.median(np.abs(periods - middle))), np.sqrt(2 / 12))
+    return middle / (3 * spread), float(np.mean(periods))
+
+
+def swing_spread(y, crossings):
+    """MAD (times 1.4826) over median of each half cycle's 90th percentile of |y| over y[a..b]."""
+    swings = [np.percentile(np.abs(y[a : b + 1]), 90) for a, b in zip(crossings[:-1], crossings[1:], strict=True)]
+    if not swings or not np.median(swings) > 0:
+        return float("nan")
+    middle = float(np.median(swings))
+    return 1.4826 * float(np.median(np.abs(np.array(swings) - middle))) / middle
+
+
 def crossings(x, hysteresis):
     state = 0
     out = []

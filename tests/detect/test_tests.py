@@ -21,6 +21,46 @@ def test_a_slow_cycle_of_two_and_a_half_periods_is_found_with_its_period():
     assert o.amplitude_pct == pytest.approx(1.0, rel=0.3)
 
 
+def _cycle_with_pauses(seed: int) -> np.ndarray:
+    """Bursts of a 12-sample triangle cycle, each followed by a pause of 20-40 samples, under light noise: a
+    stick-slip cycle that the noise breaks early now and then, or that stops for a while, sampled coarsely."""
+    rng = np.random.default_rng(seed)
+    parts = []
+    for _ in range(8):
+        t = np.arange(12 * rng.integers(4, 7))
+        parts += [2 * np.abs((t / 12) % 1.0 - 0.5) * 2 - 1, np.zeros(rng.integers(20, 40))]
+    x = np.concatenate(parts)[:600]
+    return x + 0.05 * rng.standard_normal(x.size)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_cycle_that_pauses_now_and_then_is_still_a_cycle(seed):
+    """Read by the mean and standard deviation of its periods alone, the pauses' few long intervals made these
+    irregular (r 0.5-0.95): their swing is steady, and by the median of the periods they are regular."""
+    o = oscillation.detect(_cycle_with_pauses(seed), ts_s=10.0)
+    assert o.oscillating and np.isfinite(o.regularity)
+    assert 100.0 <= o.period_s <= 200.0  # the mean period: 12 samples, and the pauses' few longer ones
+
+
+def test_noise_ringing_at_its_own_period_is_not_read_by_the_median_of_its_periods():
+    """Narrow-band noise (a loop ringing under noise, as an aggressive controller makes it) crosses zero at its
+    own period most of the time: read by the median of its periods alone, 10 of these 10 would oscillate.  Its
+    swing is not steady, so only the mean and standard deviation read it."""
+    from scipy.signal import lfilter
+
+    from stiction.detect import kernels
+
+    called, by_median = 0, 0
+    for seed in range(10):
+        rng = np.random.default_rng(seed)
+        radius, omega = 0.97, 2 * np.pi / 15
+        x = lfilter([1.0], [1.0, -2 * radius * np.cos(omega), radius**2], rng.standard_normal(800))[200:]
+        d = oscillation.detrended(x)
+        by_median += kernels.robust_regularity(oscillation.half_cycles(d.y, d.sd)[1])[0] > oscillation.REGULAR
+        called += oscillation.detect(x).oscillating
+    assert by_median >= 8 and called <= 2
+
+
 def test_noise_and_random_walks_are_rarely_called_oscillating():
     rng = np.random.default_rng(1)
     called = 0
@@ -129,6 +169,7 @@ def test_compiled_amplitude_and_shape_index_equal_the_per_half_cycle_loops(seed)
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_crossings_regularity_detrend_and_bicoherence_equal_the_plain_loops(seed):
+    from stiction.detect import kernels
     from stiction.detect.bicoherence import squared_bicoherence
     from stiction.detect.oscillation import _crossings, _regularity, detrend
     from tests.detect import reference
@@ -148,6 +189,13 @@ def test_compiled_crossings_regularity_detrend_and_bicoherence_equal_the_plain_l
             assert r == pytest.approx(want_r, rel=1e-12) and period == pytest.approx(
                 want_period, rel=1e-12, nan_ok=True
             )
+            r, period = kernels.robust_regularity(np.asarray(few, dtype=np.int64))
+            want_r, want_period = reference.robust_regularity(few)
+            assert r == pytest.approx(want_r, rel=1e-12) and period == pytest.approx(
+                want_period, rel=1e-12, nan_ok=True
+            )
+            spread = kernels.swing_spread(np.ascontiguousarray(x), np.asarray(few, dtype=np.int64))
+            assert spread == pytest.approx(reference.swing_spread(x, few), rel=1e-12, nan_ok=True)
     np.testing.assert_allclose(detrend(x), reference.detrend_polyfit(x), atol=1e-9)
     b2, k = squared_bicoherence(x, 32)
     ref, k_ref = reference.squared_bicoherence(x, 32)
