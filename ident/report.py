@@ -147,7 +147,7 @@ def diagnosis_report(
         if why:
             notes.append(f"{which} model: {why}; its friction numbers are withheld")
     base_error, extended_error = d.base.error_pct(record), d.extended.error_pct(record)
-    unfit = not linear and extended_error > UNFIT_RATIO * base_error
+    unfit = not linear and base_error > 0 and extended_error > UNFIT_RATIO * base_error
     if unfit:
         notes.append(
             "the extended model predicts PV better a sample ahead (the criterion that named its causes) but "
