@@ -81,20 +81,32 @@ def robust_regularity(crossings):
 
 
 @njit(cache=True, nogil=True)
+def _swings(y, crossings, through):
+    """Each half cycle's 90th percentile (numpy's linear rule) of ``|y|`` over ``y[a : b + through]`` (``through``
+    1: both ends; 0: ``[a, b)``), empty half cycles left out."""
+    n_half = crossings.size - 1
+    swings = np.empty(max(n_half, 0))
+    used = 0
+    for h in range(n_half):
+        a, b = crossings[h], crossings[h + 1] + through
+        if b <= a:
+            continue
+        v = np.sort(np.abs(y[a:b]))
+        pos = 0.9 * (b - a - 1)
+        lo = int(math.floor(pos))
+        hi = min(lo + 1, b - a - 1)
+        swings[used] = v[lo] + (v[hi] - v[lo]) * (pos - lo)
+        used += 1
+    return swings[:used]
+
+
+@njit(cache=True, nogil=True)
 def swing_spread(y, crossings):
     """How much the half cycles' swings differ: the median absolute deviation of each half cycle's 90th percentile
     of ``|y|`` (over ``y[a..b]``, both ends, numpy's linear rule) times 1.4826, over their median; nan without a
     half cycle or where the median is 0."""
-    n_half = crossings.size - 1
-    swings = np.empty(max(n_half, 0))
-    for h in range(n_half):
-        a, b = crossings[h], crossings[h + 1]
-        v = np.sort(np.abs(y[a : b + 1]))
-        pos = 0.9 * (b - a)
-        lo = int(math.floor(pos))
-        hi = min(lo + 1, b - a)
-        swings[h] = v[lo] + (v[hi] - v[lo]) * (pos - lo)
-    if n_half <= 0:
+    swings = _swings(y, crossings, 1)
+    if swings.size == 0:
         return np.nan
     middle = np.median(swings)
     if not middle > 0:
@@ -106,22 +118,10 @@ def swing_spread(y, crossings):
 def half_cycle_peaks(y, crossings):
     """Median over half cycles ``[a, b)`` of the 90th percentile (numpy's linear rule) of ``|y|``;
     nan without a half cycle."""
-    n_half = crossings.size - 1
-    swings = np.empty(max(n_half, 0))
-    used = 0
-    for h in range(n_half):
-        a, b = crossings[h], crossings[h + 1]
-        if b <= a:
-            continue
-        v = np.sort(np.abs(y[a:b]))
-        pos = 0.9 * (b - a - 1)
-        lo = int(math.floor(pos))
-        hi = min(lo + 1, b - a - 1)
-        swings[used] = v[lo] + (v[hi] - v[lo]) * (pos - lo)
-        used += 1
-    if used == 0:
+    swings = _swings(y, crossings, 0)
+    if swings.size == 0:
         return np.nan
-    return np.median(swings[:used])
+    return np.median(swings)
 
 
 @njit(cache=True, nogil=True)
