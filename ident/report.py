@@ -117,6 +117,22 @@ def _without_friction(f: Friction) -> Friction:
     return Friction(nan, nan, nan, nan, nan, nan, nan, nan, f.slips_read)
 
 
+def _worse_course(base_error: float, extended_error: float, unfit: bool) -> str:
+    """The warning of an extended model that simulates PV from OP worse than the canonical one (``WORSE_SHARE``), or
+    so much worse that its friction is withheld (``unfit``: ``UNFIT_RATIO``)."""
+    errors = f"({base_error:.3g} -> {extended_error:.3g} % of span)"
+    how, then = (
+        (f"{extended_error / base_error:.3g} times as badly as the canonical model {errors}, worse than any model of "
+         "the catalogue does on the loops it makes", ", and its friction numbers are withheld")
+        if unfit
+        else (f"worse than the canonical model {errors}", "; read them with care")
+    )  # fmt: skip
+    return (
+        "the extended model predicts PV better a sample ahead (the criterion that named its causes) but simulates "
+        f"it from OP {how}: its causes fit the loop's short-term dynamics, not the record's course{then}"
+    )
+
+
 def shown_ties(ties: list[Tie], f: Friction, withheld: bool) -> list[Tie]:
     """The ties a report gives.  The line along which an actuator's lag and the band trade
     (``ident.diagnose.lag_band_tie``) describes a band: where none is given, or its interval of two standard
@@ -149,13 +165,7 @@ def diagnosis_report(
     base_error, extended_error = d.base.error_pct(record), d.extended.error_pct(record)
     unfit = not linear and base_error > 0 and extended_error > UNFIT_RATIO * base_error
     if unfit:
-        notes.append(
-            "the extended model predicts PV better a sample ahead (the criterion that named its causes) but "
-            f"simulates it from OP {extended_error / base_error:.3g} times as badly as the canonical model "
-            f"({base_error:.3g} -> {extended_error:.3g} % of span), worse than any model of the catalogue does on the "
-            "loops it makes: its causes fit the loop's short-term dynamics, not the record's course, and its friction "
-            "numbers are withheld"
-        )
+        notes.append(_worse_course(base_error, extended_error, unfit=True))
     withheld = linear or impossible_valve(f, op_range) or blocking(problems) or unfit
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
     f = _without_friction(f) if withheld else with_model_error(f)
@@ -187,11 +197,7 @@ def diagnosis_report(
         for c, cand in d.candidates.items()
     }
     if d.causes and not unfit and extended_error > base_error * (1 + WORSE_SHARE):
-        notes.append(
-            f"the extended model predicts PV better a sample ahead (the criterion that named its causes) but "
-            f"simulates it from OP worse than the canonical model ({base_error:.3g} -> {extended_error:.3g} % of "
-            "span): its causes fit the loop's short-term dynamics, not the record's course; read them with care"
-        )
+        notes.append(_worse_course(base_error, extended_error, unfit=False))
     process = process_out(d.extended, record)
     if not withheld:
         notes += band_doubts(f.s_pct, f.s_se_pct, process)
