@@ -69,15 +69,20 @@ b.close()
 """
 
 
-def _zenoh_threads(env: dict) -> set[str]:
-    """The kinds of Zenoh's threads (``rx``, ``app``, ...) in a process whose two sessions exchanged a message."""
+def _python(code: str, env: dict, check: bool = False) -> str:
+    """What ``code`` prints in a fresh process (Zenoh reads ``ZENOH_RUNTIME`` once a process), with ``env`` and no
+    ``ZENOH_RUNTIME`` of this one's."""
     import os
     import subprocess
 
     base = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"}
-    out = subprocess.run([sys.executable, "-c", _THREADS], env=base | env, capture_output=True, text=True, timeout=60,
-                         check=True).stdout  # fmt: skip
-    return {name.rsplit("-", 1)[0] for name in out.split() if "-" in name}
+    return subprocess.run([sys.executable, "-c", code], env=base | env, capture_output=True, text=True, timeout=60,
+                          check=check).stdout  # fmt: skip
+
+
+def _zenoh_threads(env: dict) -> set[str]:
+    """The kinds of Zenoh's threads (``rx``, ``app``, ...) in a process whose two sessions exchanged a message."""
+    return {name.rsplit("-", 1)[0] for name in _python(_THREADS, env, check=True).split() if "-" in name}
 
 
 def test_zenoh_receives_on_the_application_runtime_unless_the_environment_says_otherwise():
@@ -89,14 +94,10 @@ def test_zenoh_receives_on_the_application_runtime_unless_the_environment_says_o
 
 def test_a_runtime_setting_zenoh_cannot_read_is_one_error_that_names_it():
     """Zenoh panics on a ``ZENOH_RUNTIME`` it cannot parse; the user reads which variable was wrong."""
-    import os
-    import subprocess
-
     code = (
         "from stiction.bridge.zenoh_session import build, open_session\n"
         "from stiction.schemas.errors import InputError\n"
         "try:\n    open_session(build())\nexcept InputError as e:\n    print(e)\n"
     )
-    env = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"} | {"ZENOH_RUNTIME": "(rx: (bogus: 1))"}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60).stdout
+    out = _python(code, {"ZENOH_RUNTIME": "(rx: (bogus: 1))"})
     assert out.startswith("cannot open a Zenoh session: ZENOH_RUNTIME='(rx: (bogus: 1))' is not a runtime setting")
