@@ -1,15 +1,12 @@
 """Historian exports: aliases, overrides, and every bad input named by file, row and column."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from stiction.bridge import historian
 from stiction.bridge.historian import read_export
 from stiction.schemas.errors import InputError
-
-PLANT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "stictiongpt_plant" / "csv"
+from tests.measured import PLANT
 
 
 def _write(tmp_path, text, name="x.csv"):

@@ -2,7 +2,7 @@ from pathlib import Path
 
 import pytest
 
-PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+from tests.measured import PLANT
 
 
 @pytest.fixture

@@ -1,12 +1,15 @@
 """A report whose named causes make the simulation of PV worse says so (the criterion that names causes
 weighs one-sample predictions; the engineer reads the simulated record)."""
 
+import pytest
+
 from stiction.ident.diagnose import diagnose
 from stiction.ident.record import Record
 from stiction.ident.report import WORSE_SHARE, diagnosis_report
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, simulate
+from tests.measured import PLANT
 
 WARNING = "simulates it from OP worse than the canonical model"
 
@@ -34,15 +37,10 @@ def test_a_model_that_simulates_the_measured_record_far_worse_gives_no_friction(
     gain 185 times the nominal, a lag of 0.5 s and a dead time of 90 s, and read S 2.95 +- 1.34 % of span under them:
     that model simulates PV from OP 3.2 times as badly as the canonical one, beyond any loop the catalogue makes
     (``UNFIT_RATIO``). Its causes are said with a warning; its friction is not given."""
-    from pathlib import Path
-
-    import pytest
-
     from stiction.bridge.historian import read_export
     from stiction.ident.report import UNFIT_RATIO, diagnose_loop
 
-    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
-    files = sorted(plant.glob("stic_2111FIC51001_0610_0004_*.csv"))
+    files = sorted(PLANT.glob("stic_2111FIC51001_0610_0004_*.csv"))
     if not files:
         pytest.skip("measured plant data not here")
     e = read_export(files[0])

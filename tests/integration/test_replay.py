@@ -6,7 +6,6 @@ import signal
 import subprocess
 import sys
 import threading
-from pathlib import Path
 
 import zenoh
 
@@ -14,8 +13,8 @@ from stiction.bridge import zenoh_session
 from stiction.schemas import keys
 from stiction.schemas.report import StictionReport
 from tests.integration.conftest import kill_left_over, start_cli, wait_until
+from tests.measured import PLANT
 
-PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
 PREFIX = "test/replay"
 
 

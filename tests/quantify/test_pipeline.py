@@ -335,12 +335,10 @@ def test_an_identification_that_breaks_costs_that_loop_its_numbers_only(quantifi
 def test_measured_a_band_the_stuck_op_travel_contradicts_is_not_reported(quantifier):
     """A measured flow loop whose OP climbed 0.42 % in a straight line with PV standing still, then
     slipped: the identified model (its PV missing the record) once read S 0.03 +- 0.01 %."""
-    from pathlib import Path
-
     from stiction.bridge.historian import read_export
+    from tests.measured import PLANT
 
-    plant = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
-    files = sorted(plant.glob("stic_2_CDU.7040-311_FIC31102_*.csv"))
+    files = sorted(PLANT.glob("stic_2_CDU.7040-311_FIC31102_*.csv"))
     if not files:
         pytest.skip("measured plant data not here")
     e = read_export(files[0])

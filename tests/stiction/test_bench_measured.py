@@ -1,12 +1,10 @@
 """``stiction bench measured`` says what each loop cost to diagnose, and which was slowest."""
 
-from pathlib import Path
 
 import pytest
 
 from stiction.bench.measured import bench_measured, print_summary
-
-PLANT = Path(__file__).resolve().parents[3] / "shared" / "data" / "stictiongpt_plant" / "csv"
+from tests.measured import PLANT
 
 
 def test_each_loop_carries_its_cpu_seconds_and_the_summary_names_the_slowest(capsys):
