@@ -87,12 +87,40 @@ def _between(grid: np.ndarray, best: int) -> np.ndarray:
 
 
 class Fitter:
-    """Fits of one record, with the stem paths read under each process hypothesis kept for reuse."""
+    """Fits of one record, with the stem paths read under each process hypothesis kept for reuse.
 
-    def __init__(self, record: Record):
+    ``threads`` above 1: fits that do not depend on each other (a screen's grid, a step's full fits) run on that
+    many threads.  The compiled kernels and numpy's large operations release the interpreter's lock, and each fit
+    is what it would be alone, so the diagnosis is the same whatever the count."""
+
+    def __init__(self, record: Record, threads: int = 1):
         self.record = record
         self.reader = StemReader(record.pv_pct, record.ts_s)
         self.sign = process_sign(record.op_pct, record.pv_pct)
+        self.threads = max(1, int(threads))
+        self._pool = None
+
+    def _map(self, fn, items: list) -> list:
+        """``[fn(x) for x in items]``, on ``threads`` threads where there are several and more than one item."""
+        if self.threads == 1 or len(items) < 2:
+            return [fn(x) for x in items]
+        if self._pool is None:  # one pool for the fitter's life: a pool a call cost a short record more than it won
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="stiction-fit")
+        return list(self._pool.map(fn, items))
+
+    def close(self) -> None:
+        """Stops the fitter's threads (if it started any)."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def __enter__(self) -> Fitter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def _criterion(self, vf: ValveFit) -> float:
         """Schwarz's criterion; a process gain of the sign the controller rules out fits the controller
@@ -110,12 +138,13 @@ class Fitter:
 
         ``own_paths=False`` reads the slips without the external oscillation (a quick scan of periods).
         """
-        out = []
         keys = [(h.dynamics, h.osc_period_s if own_paths else None) for h in hyps]
-        for h, p in zip(hyps, self.paths(keys), strict=True):
-            vf = fit_valve(self.record, h, p, search="quick")
-            out.append((vf, self._criterion(vf)))
-        return out
+
+        def one(item):
+            vf = fit_valve(self.record, *item, search="quick")
+            return vf, self._criterion(vf)
+
+        return self._map(one, list(zip(hyps, self.paths(keys), strict=True)))
 
     def with_slips(self, hyp: Hypothesis, slips) -> ValveFit | None:
         """``hyp`` fitted with given slips (no search)."""
@@ -129,6 +158,10 @@ class Fitter:
         path = self.paths([(hyp.dynamics, hyp.osc_period_s)])[0]
         vf = fit_valve(self.record, hyp, path, search="full", start=valve)
         return vf, self._criterion(vf)
+
+    def fulls(self, hyps: list[Hypothesis], start: ValveFit | None = None) -> list[tuple[ValveFit, float]]:
+        """``full`` of each hypothesis, from the same ``start``."""
+        return self._map(lambda h: self.full(h, start), hyps)
 
 
 FULL_FITS_PER_CAUSE = 3
@@ -173,8 +206,9 @@ def screen(fitter: Fitter, cause: str, current: Model) -> Screened | None:
     return Screened(cause, grid, crit, fits)
 
 
-def fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
-    """The screening curve's best local minima, and points beside the best, fitted in full."""
+def full_values(fitter: Fitter, sc: Screened) -> list[float]:
+    """The parameter values ``fit_in_full`` fits: the screening curve's best local minima, and points beside the
+    best (and, for ``EVERY_SAMPLE``'s causes, the best of every whole sample), each once."""
     minima = local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
     values = [float(sc.grid[i]) for i in minima]
     if sc.cause in EVERY_SAMPLE:
@@ -188,7 +222,18 @@ def fit_in_full(fitter: Fitter, sc: Screened, current: Model) -> Model:
         values += [float(v) for v in _between(sc.grid, minima[0])]
     if "process_type" in sc.cause:  # a lag as long as the grid's longest is no lag the record can tell
         values = [v for v in values if v < 0.999 * sc.grid.max()] or [float(sc.grid[-2])]
-    fits = [(v, *fitter.full(APPLY[sc.cause](current.hypothesis, v), current.fit)) for v in dict.fromkeys(values)]
+    return list(dict.fromkeys(values))
+
+
+def fit_in_full(
+    fitter: Fitter, sc: Screened, current: Model, fitted: list[tuple[ValveFit, float]] | None = None
+) -> Model:
+    """The cause at its ``full_values``, fitted in full (``fitted``: those fits where the caller made them, in
+    that order); the best of them, with the valve's spread over them."""
+    values = full_values(fitter, sc)
+    if fitted is None:
+        fitted = fitter.fulls([APPLY[sc.cause](current.hypothesis, v) for v in values], current.fit)
+    fits = [(v, vf, ic) for v, (vf, ic) in zip(values, fitted, strict=True)]
     value, vf, ic = min(fits, key=lambda f: f[2])
     hyp = APPLY[sc.cause](current.hypothesis, value)
     amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
@@ -224,10 +269,14 @@ machine's rounding (AMD EPYC family 25 against family 26).  Half a per cent eith
 tells of a lag and costs two full fits."""
 
 
-def _tried(fitter: Fitter, best: Model, cause: str, current: Model, value: float, points: list) -> Model:
-    """``cause`` at ``value`` fitted in full and added to ``points``; the better of it and ``best``."""
+def _tried(
+    fitter: Fitter, best: Model, cause: str, current: Model, value: float, points: list,
+    fitted: tuple[ValveFit, float] | None = None,
+) -> Model:  # fmt: skip
+    """``cause`` at ``value`` fitted in full (``fitted``: that fit, where the caller made it) and added to
+    ``points``; the better of it and ``best``."""
     hyp = APPLY[cause](current.hypothesis, value)
-    vf, ic = fitter.full(hyp, current.fit)
+    vf, ic = fitter.full(hyp, current.fit) if fitted is None else fitted
     points.append((value, vf, ic))
     if ic >= best.criterion:
         return best
@@ -258,8 +307,10 @@ def refined(fitter: Fitter, model: Model, cause: str, current: Model) -> Model:
         best = _tried(fitter, best, cause, current, float(np.exp(x)), points)
     for steps in (LOCAL_SCAN[cause], JITTER) if cause in LOCAL_SCAN else ():
         at = min(points, key=lambda p: p[2])[0]  # each scan about the best lag the one before it left
-        for step in steps:
-            best = _tried(fitter, best, cause, current, at * (1 + step), points)
+        values = [at * (1 + step) for step in steps]
+        fitted = fitter.fulls([APPLY[cause](current.hypothesis, v) for v in values], current.fit)
+        for value, fit in zip(values, fitted, strict=True):  # in the scan's order, as one by one
+            best = _tried(fitter, best, cause, current, value, points, fit)
     own = spread(fitter.record, [(f, c) for _, f, c in points])
     return replace(best, spread=combined(current.spread, own), profile=tuple(sorted(points, key=lambda p: p[0])))
 

@@ -29,6 +29,7 @@ from stiction.ident.cause_fit import (
     baseline,
     combined,
     fit_in_full,
+    full_values,
     names,
     quantised,
     refined,
@@ -69,7 +70,12 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     ((_, current_read),) = fitter.fast([current.hypothesis])
     chosen = ranked[:CAUSES_FITTED_IN_FULL] + [c for c in ranked if screened[c].criteria.min() < current_read]
     chosen += [c for c in SCREEN_BLIND if c in screened]
-    models = {c: fit_in_full(fitter, screened[c], current) for c in list(dict.fromkeys(chosen))[:MAX_FULL_CAUSES]}
+    chosen = list(dict.fromkeys(chosen))[:MAX_FULL_CAUSES]
+    # every chosen cause's full fits at once (on the fitter's threads), each cause's model from its own
+    values = {c: full_values(fitter, screened[c]) for c in chosen}
+    tasks = [APPLY[c](current.hypothesis, v) for c in chosen for v in values[c]]
+    fitted = iter(fitter.fulls(tasks, current.fit))
+    models = {c: fit_in_full(fitter, screened[c], current, [next(fitted) for _ in values[c]]) for c in chosen}
     # the current model at its best: a cause must not get the credit for a better valve fit its search found
     reference = min([current.criterion, *(baseline(fitter, current, m).criterion for m in models.values())])
     for c in ranked:
@@ -133,24 +139,25 @@ def _select(fitter: Fitter, start: Model, max_causes: int) -> tuple[Model, list[
     return current, steps
 
 
-def diagnose(record: Record, max_causes: int = MAX_CAUSES) -> Diagnosis:
+def diagnose(record: Record, max_causes: int = MAX_CAUSES, threads: int = 1) -> Diagnosis:
     """Forward selection over the catalogue from the canonical loop (see the module's docstring).
 
     Twice: with the sticky valve and with a valve that follows OP (no stiction).  A loop whose
     valve does not stick is no canonical loop either, and its process must still be read; the
     better of the two by the criterion is the diagnosis, and their difference says whether
-    stiction earns its place.
+    stiction earns its place.  ``threads``: the fits that do not depend on each other run on that many threads
+    (``ident.cause_fit.Fitter``); the diagnosis is the same.
     """
-    fitter = Fitter(record)
-    vf, ic = fitter.full(Hypothesis())
-    base = Model(Hypothesis(), vf, ic)
-    if checks.flat(record.pv_pct):
-        # a dead sensor or a loop at rest (``ident.checks`` names it): no model has anything to explain
-        return Diagnosis(base, base, {}, [], friction(vf, record), friction(vf, record), 0.0, [])
-    sticky, sticky_steps = _select(fitter, base, max_causes)
-    linear_hyp = Hypothesis(linear_valve=True)
-    vf_linear, ic_linear = fitter.full(linear_hyp)
-    linear, linear_steps = _select(fitter, Model(linear_hyp, vf_linear, ic_linear), max_causes)
+    with Fitter(record, threads) as fitter:
+        vf, ic = fitter.full(Hypothesis())
+        base = Model(Hypothesis(), vf, ic)
+        if checks.flat(record.pv_pct):
+            # a dead sensor or a loop at rest (``ident.checks`` names it): no model has anything to explain
+            return Diagnosis(base, base, {}, [], friction(vf, record), friction(vf, record), 0.0, [])
+        sticky, sticky_steps = _select(fitter, base, max_causes)
+        linear_hyp = Hypothesis(linear_valve=True)
+        vf_linear, ic_linear = fitter.full(linear_hyp)
+        linear, linear_steps = _select(fitter, Model(linear_hyp, vf_linear, ic_linear), max_causes)
     stiction_delta = float(linear.criterion - sticky.criterion)
     chosen, steps = (sticky, sticky_steps) if stiction_delta > 0 else (linear, linear_steps)
     loaded = slow_load.named(record, chosen, steps[-1].get("external_oscillation") if steps else None)

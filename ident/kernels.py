@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _break(start, end, mean, moves, decay, k, level, d, band):
     """(share of interval k's time before the break, drive at the break) for a stem at ``level`` slipping in
     ``d``; the drive relaxes by ``decay`` an interval (``ident.valve_model.time_share``)."""
@@ -44,7 +44,7 @@ def _break(start, end, mean, moves, decay, k, level, d, band):
     return t, s + frac * (e - s)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _wider(x, cap):
     """``x`` [C, M] copied into zeros of [C, cap]."""
     out = np.zeros((x.shape[0], cap), x.dtype)
@@ -52,7 +52,7 @@ def _wider(x, cap):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
     """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events."""
     n_cand, n, n_read = band.size, end.size, read_at.size
@@ -127,7 +127,7 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
     return counts, at, dirs, brk, land, forced
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def segment_row(f, penalty):
     """Ends of the optimal pieces of ``f`` under ``SSE + penalty * pieces`` (PELT, Killick et al. 2012).
 
@@ -174,7 +174,7 @@ def segment_row(f, penalty):
     return ends[:m][::-1].copy()
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def path_pieces(u, bounds, noise_sd, min_jump_sd):
     """(starts, levels) of the stem's pieces from a segmentation of ``u`` (``bounds``: 0, then each
     piece's end): a piece of one sample between two levels joins the nearer one, and a piece whose level

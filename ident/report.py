@@ -254,6 +254,7 @@ def diagnose_loop(
     last: int | None = None,
     max_causes: int | None = None,
     sp: np.ndarray | None = None,
+    threads: int = 1,
 ):
     """Diagnose one measured loop as ``stiction diagnose`` does: the last ``last`` samples (default
     up to MAX_SAMPLES, with a warning when more were given), the valve checked against a measured
@@ -275,6 +276,6 @@ def diagnose_loop(
     if op.size < MIN_SAMPLES:
         raise InputError(f"{op.size} samples, need at least {MIN_SAMPLES} to diagnose")
     record = Record(op, pv, ts_s, horizon=choose_horizon(pv))
-    d = diagnose(record, max_causes=MAX_CAUSES if max_causes is None else max_causes)
+    d = diagnose(record, max_causes=MAX_CAUSES if max_causes is None else max_causes, threads=threads)
     check = valve_check_out(check_valve(op, mv, ts_s)) if mv is not None else None
     return diagnosis_report(name, record, d, warnings, check, sp), record, d

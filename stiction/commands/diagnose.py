@@ -37,7 +37,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=min(os.cpu_count() or 1, 4),
         help="windows diagnosed at once on worker processes, a core each, answered in the files' order "
-        "(default: the cores, at most 4; one window is diagnosed in this process)",
+        "(default: the cores, at most 4; a single window is diagnosed in this process, its fits on that many "
+        "threads)",
     )
 
 
@@ -120,14 +121,15 @@ def progress_line(done: int, failed: int, path: str, samples: int, elapsed_s: fl
     )
 
 
-def _diagnose(path: Path, export, max_causes: int):
+def _diagnose(path: Path, export, max_causes: int, threads: int = 1):
     """(report, record, diagnosis) of one window (on a worker process where ``--jobs`` is above 1): the
-    export's window whole, as ``--last`` chose it (the reader already says which rows it holds)."""
+    export's window whole, as ``--last`` chose it (the reader already says which rows it holds); ``threads``:
+    the fits of its search that do not depend on each other run on that many threads (the same diagnosis)."""
     from stiction.ident.report import diagnose_loop
 
     return diagnose_loop(
         path.stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, export.op.size, max_causes,
-        export.sp,
+        export.sp, threads,
     )  # fmt: skip
 
 
@@ -137,10 +139,10 @@ def _outcomes(items: Iterator, jobs: int, max_causes: int) -> Iterator:
     two each waiting, so that a folder of thousands of exports is read as it is answered."""
     first, second = next(items, None), next(items, None)
     ahead = [x for x in (first, second) if x is not None]
-    if jobs <= 1 or second is None:
+    if jobs <= 1 or second is None:  # one window: its own fits share the cores --jobs allows
         for path, export in chain(ahead, items):
             try:
-                yield path, export, _diagnose(path, export, max_causes)
+                yield path, export, _diagnose(path, export, max_causes, threads=jobs if second is None else 1)
             except Exception as e:  # one bad file (or a fault of ours in one) never stops the others
                 yield path, export, as_stiction_error(e)
         return

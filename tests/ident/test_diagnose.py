@@ -212,3 +212,18 @@ def test_a_slow_load_under_the_noise_of_one_sample_is_named_from_pvs_change_over
     assert d.gain_pct(loaded) > 0
     assert d.friction.fs_pct == pytest.approx(60.0, abs=3.0) and d.friction.fd_pct == pytest.approx(30.0, abs=3.0)
     assert diagnose(_record(Extensions(), 60.0, 30.0, seed=seed, noise=0.025)).causes == ()
+
+
+def test_fits_on_several_threads_give_the_diagnosis_one_thread_gives():
+    """The search's independent fits (the screen's grid, a step's full fits, the lag's local scan) run on threads
+    where asked: the same causes, criteria, friction and ties, to the last digit (a sensor lag walks every one)."""
+    ext, fs, fd = HIDDEN["sensor_lag"]
+    record = _record(ext, fs, fd)
+    one, two = diagnose(record, threads=1), diagnose(record, threads=2)
+    assert two.causes == one.causes and two.causes[0] == "sensor_lag"
+    assert two.extended.criterion == one.extended.criterion
+    assert two.friction == one.friction
+    assert two.ties == one.ties
+    assert [{c: k.criterion for c, k in s.items()} for s in two.steps] == [
+        {c: k.criterion for c, k in s.items()} for s in one.steps
+    ]
