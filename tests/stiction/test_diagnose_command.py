@@ -85,10 +85,10 @@ def test_a_fault_of_ours_in_one_file_is_named_and_the_others_answered(loops, cap
 
     real = diagnose._diagnose
 
-    def failing_on_dt(path, export, max_causes):
+    def failing_on_dt(path, export, max_causes, threads=1):
         if path.stem == "dt":
             raise IndexError("index 5 is out of bounds")
-        return real(path, export, max_causes)
+        return real(path, export, max_causes, threads)
 
     monkeypatch.setattr(diagnose, "_diagnose", failing_on_dt)
     assert main(["diagnose", "--json", "--jobs", "1", str(loops / "dt.csv"), str(loops / "dt_no_mv.csv")]) == 2
