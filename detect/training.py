@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stiction.detect.features import NAMES, evidence, evidence_rows
-from stiction.detect.verdict import STEP_AT, Detector, fit_logistic, fit_stuck_rule
+from stiction.detect.verdict import STEP_AT, Detector, at_equal_priors, fit_logistic, fit_stuck_rule
 from stiction.sim.extensions import OSC_SHAPES
 from stiction.sim.grid import healthy_loops, random_loops
 from stiction.sim.loop import simulate
@@ -173,8 +173,10 @@ def train(
     def labels(flags):
         return ["stiction" if f else "other" for f in flags]
 
-    stiction = fit_logistic(np.vstack([sim.x[general], m_x]), labels(np.concatenate([sticky[general], m_sticky])),
-                            ("other", "stiction"), np.concatenate([np.ones(general.sum()), m_w]))  # fmt: skip
+    flags, w = np.concatenate([sticky[general], m_sticky]), np.concatenate([np.ones(general.sum()), m_w])
+    stiction = fit_logistic(np.vstack([sim.x[general], m_x]), labels(flags), ("other", "stiction"), w)
+    # read at equal priors, as the cycle and canonical models are fitted: 0.5 then balances a miss and a false alarm
+    stiction = at_equal_priors(stiction, float(w @ flags / w.sum()))
     cycle = None
     osc = sim.oscillating
     if sticky[osc].any() and (~sticky[osc]).any():

@@ -111,7 +111,7 @@ def train_detector(args: argparse.Namespace) -> int:
         f"{2 * training.THESIS_SHARE * n_per_cause} canonical sticky loops (half noise-free); the canonical model "
         f"on {training.CANONICAL_PER_CLASS} sticky canonical loops and as many healthy ones under an external "
         f"load, a sine, filtered square or filtered triangle in turn (seeds {canonical_seed}-{canonical_seed + 3}, "
-        "a quarter noise-free)"
+        "a quarter noise-free); every model's probability read at equal priors"
         + (f"; {len(mx)} labelled measured windows of {len(set(tags))} tags from {args.measured.name}" if mx else "")
     )
     canonical = training.canonical_set(training.CANONICAL_PER_CLASS, canonical_seed)

@@ -5,7 +5,7 @@ import pytest
 
 from stiction.detect.features import evidence
 from stiction.detect.training import SIM_SEED
-from stiction.detect.verdict import STICTION_AT, Detector, decide, fit_logistic, short_of
+from stiction.detect.verdict import STICTION_AT, Detector, at_equal_priors, decide, fit_logistic, short_of
 from stiction.sim.plant_families import LOOK_ALIKES, family_loops, simulate_families, stable
 
 
@@ -62,6 +62,28 @@ def test_logistic_fit_recovers_a_known_boundary():
     assert np.mean((p[:, 1] > 0.5) == np.array([label == "stiction" for label in labels])) > 0.95
     w = model.weights[:, 1] - model.weights[:, 0]
     assert w[0] > 0 > w[1] and abs(w[2]) < 0.2 * abs(w[0])
+
+
+def test_a_model_fitted_to_one_sticky_window_in_four_reads_at_equal_priors_where_the_classes_balance():
+    """Two classes of equal spread, one a quarter of the windows: fitted as they come, the model says 0.25 where
+    the two classes' densities meet, and its 0.5 calls too few; read at equal priors it says 0.5 there, and its
+    0.5 is the balanced point (reference: the densities' own crossing, halfway between the means)."""
+    rng = np.random.default_rng(3)
+    sticky = rng.random(4000) < 0.25
+    x = (rng.normal(size=4000) + np.where(sticky, 1.0, -1.0))[:, None]
+    labels = ["stiction" if s else "other" for s in sticky]
+    raw = fit_logistic(x, labels, ("other", "stiction"), l2=1e-6)
+    even = at_equal_priors(raw, float(sticky.mean()))
+    at_crossing = np.zeros((1, 1))
+    assert raw.probabilities(at_crossing)[0, 1] == pytest.approx(0.25, abs=0.04)
+    assert even.probabilities(at_crossing)[0, 1] == pytest.approx(0.5, abs=0.04)
+    assert np.allclose(even.weights, raw.weights)
+
+    def balanced(model):
+        called = model.probabilities(x)[:, 1] >= 0.5
+        return 0.5 * (called[sticky].mean() + (~called[~sticky]).mean())
+
+    assert balanced(even) > balanced(raw) + 0.02
 
 
 def test_a_feature_left_out_weighs_nothing_and_the_rest_fit_as_without_it():
