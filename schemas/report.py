@@ -57,7 +57,8 @@ class StictionReport(BaseModel):
         "(oscillates, not from stiction: likely_cause), no_oscillation, or bad_data (warnings say which)"
     )
     stiction_probability: float | None = Field(
-        description="the detector's probability that the valve sticks (0..1); null for bad data"
+        description="the detector's probability that the valve sticks (0..1), read as if a sticky and a healthy "
+        "valve were equally likely before the data; null for bad data"
     )
     likely_cause: str | None = Field(
         description="stiction, or for other_cause the look-alike it resembles most (external_oscillation, "
