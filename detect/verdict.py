@@ -142,7 +142,7 @@ def at_equal_priors(model: Logistic, share: float, positive: str = "stiction") -
 class StuckRule:
     """A stuck-valve test beside the logistic model: a window whose statistic is at or above ``at``
     is sticky with ``probability``, the share of the simulated training windows at or above ``at``
-    that were sticky.  Two such tests: OP ramping in a straight line while PV stands still
+    that were sticky (at equal priors, ``fit_stuck_rule``).  Two such tests: OP ramping in a straight line while PV stands still
     (stuck-ramp share), and a setpoint step PV followed only after OP had ramped, then with a
     jump (``detect.setpoint``).  The logistic model weighs cycles; a valve that sticks for an
     hour between setpoint moves shows no cycle."""
@@ -155,11 +155,16 @@ class StuckRule:
 
 
 def fit_stuck_rule(statistic: np.ndarray, causes: list[str], at: float = STUCK_AT) -> StuckRule:
-    """The rule's probability from simulated windows: sticky among those at or above ``at``
-    (Laplace's rule of succession: never 1 from a handful)."""
+    """The rule's probability from simulated windows: sticky among those at or above ``at`` (Laplace's rule of
+    succession: never 1 from a handful), read at equal priors as the models' are (``at_equal_priors``: its odds
+    divided by the windows' own odds of a sticky one)."""
     above = np.asarray(statistic) >= at
     sticky = np.array([c == "stiction" for c in causes])
-    return StuckRule(at, float((np.sum(above & sticky) + 1) / (np.sum(above) + 2)))
+    p = (np.sum(above & sticky) + 1) / (np.sum(above) + 2)
+    share = float(np.mean(sticky)) if sticky.size else 0.5
+    if 0.0 < share < 1.0:
+        p = 1.0 / (1.0 + (1.0 - p) / p * share / (1.0 - share))
+    return StuckRule(at, float(p))
 
 
 @dataclass(frozen=True)
