@@ -142,8 +142,8 @@ def at_equal_priors(model: Logistic, share: float, positive: str = "stiction") -
 class StuckRule:
     """A stuck-valve test beside the logistic model: a window whose statistic is at or above ``at``
     is sticky with ``probability``, the share of the simulated training windows at or above ``at``
-    that were sticky (at equal priors, ``fit_stuck_rule``).  Two such tests: OP ramping in a straight line while PV stands still
-    (stuck-ramp share), and a setpoint step PV followed only after OP had ramped, then with a
+    that were sticky (at equal priors, ``fit_stuck_rule``).  Two such tests: OP ramping in a straight line
+    while PV stands still (stuck-ramp share), and a setpoint step PV followed only after OP had ramped, then with a
     jump (``detect.setpoint``).  The logistic model weighs cycles; a valve that sticks for an
     hour between setpoint moves shows no cycle."""
 
