@@ -33,6 +33,22 @@ def test_named_loops_are_not_counted_twice_and_misses_stay_misses():
     assert s["named_share"] == 1 / 3 and s["cannot_tell_share"] == 1 / 3
 
 
+def test_a_gain_in_fit_is_counted_over_the_loops_not_said_to_be_a_tie():
+    """A cause the data cannot tell apart gains nothing; the share of loops whose fit gained is also given without
+    those, pooled over the causes."""
+    from stiction.bench.diagnose import _pooled
+
+    lag_limit = ("none", "process_type", None, {"time_constant_s_low": 333.0})
+    rows = [
+        _row({"time_constant_s": 100.0}, ["process_type"], []) | {"gain_pct": 40.0},  # named, gained
+        _row({"time_constant_s": 450.0}, [], [lag_limit]),  # a tie: no gain, not counted
+        _row({"time_constant_s": 200.0}, [], [lag_limit]),  # a miss: no gain, counted
+    ]
+    s = _summary("process_type", rows)
+    assert s["gain_positive_share"] == 1 / 3 and s["gain_positive_not_tied"] == [1, 2]
+    assert _pooled([s["gain_positive_not_tied"], [3, 4]]) == 4 / 6 and _pooled([[0, 0]]) is None
+
+
 def test_the_lag_line_is_summarised_where_the_report_gives_one():
     """S as read and S on the report's lag line at the true lag, medians over the loops that have a line."""
     def lag_row(tau, named, s_true, s_read, s_se, on_line):
