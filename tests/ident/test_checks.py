@@ -29,6 +29,9 @@ def _windows(n: int = 400) -> tuple[np.ndarray, np.ndarray, list[str]]:
     rows["saturated_low"] = (np.maximum(clean_op, 47.0), clean_pv)
     rows["held_op"] = (np.repeat(clean_op[::20], 20)[:n], clean_pv)
     rows["held_and_clipped"] = (np.clip(np.repeat(clean_op[::10], 10)[:n], 46, 54), clean_pv)
+    kept = np.r_[np.arange(0, n, 8), n - 1]
+    rows["compressed_pv"] = (clean_op, np.interp(t, kept, clean_pv[kept]))
+    rows["compressed_op"] = (np.interp(t, kept, clean_op[kept]), clean_pv)
     names = list(rows)
     op = np.stack([rows[k][0] for k in names])
     pv = np.stack([rows[k][1] for k in names])
@@ -43,7 +46,7 @@ def test_a_batch_is_checked_as_each_window_alone():
     fired = {name: [c.name for c in got[i]] for i, name in enumerate(names)}
     # every check is tripped somewhere in the batch, and the clean windows trip none
     assert {c for cs in fired.values() for c in cs} >= {
-        "flat_pv", "frozen_pv", "stepped_pv", "manual", "saturated_op", "held_op",
+        "flat_pv", "frozen_pv", "stepped_pv", "manual", "saturated_op", "held_op", "compressed_pv", "compressed_op",
     }  # fmt: skip
     assert fired["clean"] == [] and fired["almost_frozen"] == [] and fired["four_values"] == []
 
@@ -72,3 +75,24 @@ def test_a_pv_frozen_while_op_winds_one_way_names_a_valve_that_does_not_move_bes
     wander = 50 + 10 * np.sin(t / 30)
     (frozen,) = [c for c in data_checks(wander, pv) if c.name == "frozen_pv"]
     assert "valve" not in frozen.message and "a sensor or archive that stopped updating" in frozen.message
+
+
+def test_a_historians_compressed_archive_is_named_with_its_factor_and_the_raw_record_is_not():
+    """Thornhill, Choudhury & Shah (2004): a record stored as straight lines between values kept when they moved by
+    more than a deadband (``sim.plant_families.compress``) misleads oscillation and nonlinearity tests.  The same
+    loop's record raw, rounded as an export rounds it, or held between changes, is not called compressed."""
+    from stiction.ident.checks import compression_factor
+    from stiction.sim.plant_families import compress
+
+    rng = np.random.default_rng(5)
+    n = 600
+    t = np.arange(n)
+    op = 50 + 4 * np.sin(t / 30) + np.cumsum(rng.normal(0, 0.05, n))
+    pv = 40 + 2 * np.sin(t / 30 - 1) + rng.normal(0, 0.05, n)
+    stored = compress(pv, 0.5)
+    (check,) = [c for c in data_checks(op, stored) if c.name == "compressed_pv"]
+    assert not check.blocks and "compressed archive" in check.message and "without noise" in check.message
+    assert compression_factor(stored) >= 3
+    assert compression_factor(pv) < 1.1 and compression_factor(np.round(pv, 3)) < 1.1
+    assert compression_factor(np.repeat(pv[::10], 10)) < 1.1  # held, not interpolated: held_op's and frozen's
+    assert not [c for c in data_checks(op, np.round(pv, 6)) if c.name.startswith("compressed")]
