@@ -125,6 +125,12 @@ def fit_logistic(
     return Logistic(classes, mean, scale, theta[: f * c].reshape(f, c), theta[f * c :])
 
 
+def prior_log_odds(share: float) -> float:
+    """The log-odds ``log(share / (1 - share))`` of a positive window in training windows of which ``share`` were
+    positive: what reading at equal priors takes out (``at_equal_priors``, ``fit_stuck_rule``)."""
+    return float(np.log(share / (1 - share)))
+
+
 def at_equal_priors(model: Logistic, share: float, positive: str = "stiction") -> Logistic:
     """``model`` fitted to windows of which ``share`` (weighted) were ``positive``, its probability read as if the
     two classes had been equally likely: the positive class's log-odds less the prior's, ``log(share / (1 -
@@ -134,7 +140,7 @@ def at_equal_priors(model: Logistic, share: float, positive: str = "stiction") -
     accuracy, which ``STICTION_AT`` is chosen for, weighs a missed valve and a false alarm alike."""
     k = model.classes.index(positive)
     shift = np.zeros(len(model.classes))
-    shift[k] = -np.log(share / (1 - share))
+    shift[k] = -prior_log_odds(share)
     return Logistic(model.classes, model.mean, model.scale, model.weights, model.bias + shift)
 
 
@@ -163,7 +169,7 @@ def fit_stuck_rule(statistic: np.ndarray, causes: list[str], at: float = STUCK_A
     p = (np.sum(above & sticky) + 1) / (np.sum(above) + 2)
     share = float(np.mean(sticky)) if sticky.size else 0.5
     if 0.0 < share < 1.0:
-        p = 1.0 / (1.0 + (1.0 - p) / p * share / (1.0 - share))
+        p = 1.0 / (1.0 + (1.0 - p) / p * np.exp(prior_log_odds(share)))
     return StuckRule(at, float(p))
 
 

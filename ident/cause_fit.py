@@ -207,8 +207,8 @@ def screen(fitter: Fitter, cause: str, current: Model) -> Screened | None:
 
 
 def full_values(fitter: Fitter, sc: Screened) -> list[float]:
-    """The parameter values ``fit_in_full`` fits: the screening curve's best local minima, and points beside the
-    best (and, for ``EVERY_SAMPLE``'s causes, the best of every whole sample), each once."""
+    """The parameter values a cause is fitted in full at (``best_of_full``): the screening curve's best local minima,
+    and points beside the best (and, for ``EVERY_SAMPLE``'s causes, the best of every whole sample), each once."""
     minima = local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
     values = [float(sc.grid[i]) for i in minima]
     if sc.cause in EVERY_SAMPLE:
@@ -225,15 +225,9 @@ def full_values(fitter: Fitter, sc: Screened) -> list[float]:
     return list(dict.fromkeys(values))
 
 
-def fit_in_full(
-    fitter: Fitter, sc: Screened, current: Model, fitted: list[tuple[ValveFit, float]] | None = None
-) -> Model:
-    """The cause at its ``full_values``, fitted in full (``fitted``: those fits where the caller made them, in
-    that order); the best of them, with the valve's spread over them."""
-    values = full_values(fitter, sc)
-    if fitted is None:
-        fitted = fitter.fulls([APPLY[sc.cause](current.hypothesis, v) for v in values], current.fit)
-    fits = [(v, vf, ic) for v, (vf, ic) in zip(values, fitted, strict=True)]
+def best_of_full(fitter: Fitter, sc: Screened, current: Model, fits: list[tuple[float, ValveFit, float]]) -> Model:
+    """The cause at the best of its full fits ``fits`` ((value, fit, criterion) at each of its ``full_values``), with
+    the valve's spread over them."""
     value, vf, ic = min(fits, key=lambda f: f[2])
     hyp = APPLY[sc.cause](current.hypothesis, value)
     amplitude = load_amplitude_pct(fitter.record, vf) if hyp.osc_period_s else current.load_amplitude_pct
