@@ -67,6 +67,7 @@ def _one(spec, samples: int | None = None) -> dict:
         "ties": [(t.named, t.alternative, t.delta_criterion, dict(t.parameters)) for t in d.ties],
         "truth": spec.extensions.active(),
         "params": {k: float(v) for k, v in cause_parameters(d.extended).items()},
+        "ranges": {k: list(v) for k, v in rep.parameter_ranges.items()},
         "gain_pct": d.gain_pct(rec),
         "fs_fd_base": [_nan(rep.base_friction.fs_pct), _nan(rep.base_friction.fd_pct)],
         "fs_fd_ext": ext,
@@ -121,6 +122,10 @@ def _summary(cause: str, rows: list[dict]) -> dict:
         for p, v in r["truth"].items()
         if p in r["params"] and np.isfinite(r["params"][p])
     ]
+    # the true parameter within the range the report gives it (about 95 %), where the cause is named with one
+    in_range = [
+        r["ranges"][p][0] <= v <= r["ranges"][p][1] for r in rows for p, v in r["truth"].items() if p in r["ranges"]
+    ]
     base, n_base = _mae(rows, "fs_fd_base")
     ext, n_ext = _mae(rows, "fs_fd_ext")
     on_line = [r for r in rows if np.isfinite(r.get("s_on_line_at_true_lag", np.nan)) and np.isfinite(r["s_read"])]
@@ -141,6 +146,8 @@ def _summary(cause: str, rows: list[dict]) -> dict:
         "cannot_tell_share": float(np.mean(tied)),
         "first_named": dict(first),
         "param_rel_err_median": float(np.median(rel)) if rel else None,
+        "param_in_range_share": float(np.mean(in_range)) if in_range else None,
+        "param_in_range": [int(sum(in_range)), len(in_range)],
         "gain_positive_share": float(np.mean([r["gain_pct"] > 0 for r in rows])),
         # the same over the loops the report does not call a tie: a cause the data cannot tell apart gains nothing
         "gain_positive_not_tied": [int(sum(r["gain_pct"] > 0 for r, t in zip(rows, tied, strict=True) if not t)),
@@ -161,8 +168,8 @@ def _summary(cause: str, rows: list[dict]) -> dict:
 def _loop_row(row: dict) -> dict:
     """What one loop was and what diagnose read (the JSON's ``loops``): its hidden effect, the causes named, their
     parameters, fs/fd true and read under the extended model with their coverage, and CPU seconds."""
-    keys = ("truth", "named", "params", "fs_fd_true", "fs_fd_ext", "covered", "gain_pct", "seconds", "s_true", "s_read",
-            "s_se", "s_on_line_at_true_lag")
+    keys = ("truth", "named", "params", "ranges", "fs_fd_true", "fs_fd_ext", "covered", "gain_pct", "seconds",
+            "s_true", "s_read", "s_se", "s_on_line_at_true_lag")
     return {k: row[k] for k in keys}
 
 
@@ -216,6 +223,7 @@ def bench_diagnose(
             if effects
             else None,
             "gain_positive_share_effects_not_tied": _pooled([out[c]["gain_positive_not_tied"] for c in effects]),
+            "param_in_range_share": _pooled([out[c]["param_in_range"] for c in out]),
             "fs_fd_mae_canonical_pp": float(np.nanmean([out[c]["fs_fd_mae_canonical_pp"] for c in out])),
             "fs_fd_mae_extended_pp": float(np.nanmean([out[c]["fs_fd_mae_extended_pp"] for c in out])),
             "s_per_loop_median": float(np.median([out[c]["s_per_loop_median"] for c in out])),
@@ -297,12 +305,12 @@ def print_header(per_cause: int, draws: str = "catalogue", seed: int = SEED, sam
     print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only){drawn}"
           f"{length}")  # fmt: skip
     print(
-        f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} {'':>8s} "
-        f"{'read':>7s} {'in 2se':>6s} {'s/loop':>6s}"
+        f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'range':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} "
+        f"{'':>8s} {'read':>7s} {'in 2se':>6s} {'s/loop':>6s}"
     )
     print(
-        f"{'':22s} {'':>7s} {'':>7s} {'(med)':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} {'':>6s} "
-        f"{'(CPU)':>6s}"
+        f"{'':22s} {'':>7s} {'':>7s} {'(med)':>6s} {'holds':>6s} {'':>7s} {'canon.':>8s} {'extend.':>8s} {'':>7s} "
+        f"{'':>6s} {'(CPU)':>6s}"
     )
 
 
@@ -310,10 +318,11 @@ def print_row(c: str, s: dict) -> None:
     """One cause's figures, as ``bench_diagnose`` finishes it (its ``progress``)."""
     first = ", ".join(f"{k} {v}" for k, v in sorted(s["first_named"].items(), key=lambda kv: -kv[1]))
     param = "-" if s["param_rel_err_median"] is None else f"{100 * s['param_rel_err_median']:.0f} %"
+    held = "-" if s["param_in_range_share"] is None else f"{100 * s['param_in_range_share']:.0f} %"
     within = s["fs_fd_within_2se_share"]
     cover = "-" if within is None else f"{100 * within:.0f} %"
     print(
-        f"{c:22s} {100 * s['named_share']:5.0f} % {100 * s['cannot_tell_share']:5.0f} % {param:>6s} "
+        f"{c:22s} {100 * s['named_share']:5.0f} % {100 * s['cannot_tell_share']:5.0f} % {param:>6s} {held:>6s} "
         f"{100 * s['gain_positive_share']:5.0f} % "
         f"{s['fs_fd_mae_canonical_pp']:8.2f} {s['fs_fd_mae_extended_pp']:8.2f} "
         f"{s['fs_fd_read_extended']:3d}/{s['n']:<3d} {cover:>6s} {s['s_per_loop_median']:6.1f}   "
@@ -354,6 +363,7 @@ def print_overall(figures: dict) -> None:
         f"says the data cannot tell apart), canonical loops given a cause {100 * (o['none_given_a_cause'] or 0):.0f} % "
         f"(and {none_tied:.0f} % tied), a gain in fit on {_pct(o.get('gain_positive_share_effects'))} of the effects' "
         f"loops ({_pct(o.get('gain_positive_share_effects_not_tied'))} of those not said to be a tie), "
+        f"the true parameter within its named range on {_pct(o.get('param_in_range_share'))}, "
         f"fs/fd {o['fs_fd_mae_canonical_pp']:.2f} pp canonical -> "
         f"{o['fs_fd_mae_extended_pp']:.2f} pp extended, {o['s_per_loop_median']:.1f} s per loop (median; "
         f"{o['s_per_loop_max']:.1f} s at most)"

@@ -109,6 +109,12 @@ class DiagnosisReport(_Frozen):
         description="answers the data cannot tell from those given: read a cause here as 'or'",
     )
     parameters: dict[str, float] = Field(description="the fitted parameters of every named cause")
+    parameter_ranges: dict[str, tuple[float, float]] = Field(
+        default_factory=dict,
+        description="about 95 % range (low, high) of each parameter in parameters, from how far the diagnosis read "
+        "them on simulated loops (and, for gain_ratio, the fit's two standard errors); quantum_pct, read off the "
+        "record's lattice, has none",
+    )
     candidates: dict[str, CauseCandidate]
     base_error: float = Field(
         description="RMS error of PV as the canonical model simulates it from the measured OP, % of span"

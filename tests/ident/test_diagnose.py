@@ -55,9 +55,14 @@ def test_the_hidden_cause_is_named_with_its_parameter(cause):
     record = _record(ext, fs, fd)
     d = diagnose(record)
     assert d.causes and d.causes[0] == cause, d.causes
-    found = cause_parameters(d.extended)
+    found, ranges = cause_parameters(d.extended), d.parameter_ranges()
     for name, truth in ext.active().items():
         assert found[name] == pytest.approx(truth, rel=0.25), (name, found[name], truth)
+        if name != "quantum_pct":  # read off the record's lattice: no range
+            assert ranges[name][0] <= truth <= ranges[name][1], (name, ranges[name], truth)
+        if name == "gain_ratio":  # and the fit's own two standard errors
+            se = d.extended.fit.gain_se
+            assert ranges[name][0] <= found[name] - 2 * se and ranges[name][1] >= found[name] + 2 * se
     assert d.gain_pct(record) > 0
     if cause != "quantization":  # the rounding is read from the values, not from the valve
         assert d.friction.fs_pct == pytest.approx(fs, abs=3.0)
@@ -81,6 +86,9 @@ def test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_tra
     assert abs(at_truth - s_true) < 0.5 * abs(d.friction.s_pct - s_true)
     at_read = s0 - slope * d.extended.hypothesis.actuator_tau_s
     assert at_read == pytest.approx(d.friction.s_pct)  # the line passes through the reading
+    # the lag read twice too long, and its range (about 95 %) says so: it holds the true lag
+    lo, hi = d.parameter_ranges()["actuator_tau_s"]
+    assert d.extended.hypothesis.actuator_tau_s > 1.5 * ext.actuator_tau_s and lo <= ext.actuator_tau_s <= hi
     # no actuator lag, no line
     plain = diagnose(_record(Extensions(), fs, fd))
     assert not [t for t in plain.ties if t.alternative == "actuator_lag"]

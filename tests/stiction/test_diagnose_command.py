@@ -1,6 +1,7 @@
 """``stiction diagnose`` as a user runs it: JSON Lines, a summary, plots, bad files named and the rest answered."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -32,6 +33,8 @@ def test_json_names_the_cause_and_checks_the_valve_where_mv_is_there(loops, caps
     no_mv, with_mv = (json.loads(line) for line in capsys.readouterr().out.strip().splitlines())
     for r in (no_mv, with_mv):
         assert r["cause"] == "dead_time" and r["parameters"]["dead_time_s"] == pytest.approx(3, rel=0.25)
+        lo, hi = r["parameter_ranges"]["dead_time_s"]  # every named parameter has its range (about 95 %)
+        assert lo < r["parameters"]["dead_time_s"] < hi and lo <= 3 <= hi
         assert r["gain_pct"] > 0 and r["extended_error"] < r["base_error"]
         assert r["fs_pct"] == pytest.approx(40, abs=3) and r["s_se_pct"] > 0
         assert set(r["candidates"]) >= {"dead_time", "deadband", "quantization", "sensor_lag"}
@@ -59,7 +62,10 @@ def test_last_longer_than_the_default_cap_is_diagnosed_whole(loops, capsys, monk
 def test_summary_and_plot(loops, tmp_path, capsys):
     assert main(["diagnose", str(loops / "dt_no_mv.csv"), "--plot", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "causes: dead_time" in out and "fit error: canonical" in out
+    assert "causes: dead_time (dead_time_s " in out and "fit error: canonical" in out
+    cause = next(line for line in out.splitlines() if "causes:" in line)
+    value, lo, hi = (float(x) for x in re.findall(r"dead_time_s ([\d.]+) \(([\d.]+)-([\d.]+)\)", cause)[0])
+    assert lo < value < hi  # the value with its range
     process = next(line for line in out.splitlines() if "process:" in line)
     assert "integrating" in process and "or a self-regulating process with a lag of 166.7 s or longer" in process
     png = tmp_path / "dt_no_mv.png"
