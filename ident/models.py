@@ -121,8 +121,8 @@ class Diagnosis:
     def parameters(self) -> dict[str, float]:
         return cause_parameters(self.extended)
 
-    def parameter_ranges(self) -> dict[str, tuple[float, float]]:
-        return parameter_ranges(self.extended)
+    def parameter_ranges(self, ts_s: float) -> dict[str, tuple[float, float]]:
+        return parameter_ranges(self.extended, ts_s)
 
     def gain_pct(self, record: Record) -> float:
         """How much the extended model's fit error improves on the canonical's, %."""
@@ -172,9 +172,16 @@ not the typical error.  An actuator lag's is wide (a factor of e) because a lag 
 (``ident.diagnose.lag_band_tie``)."""
 
 
-def parameter_ranges(model: Model) -> dict[str, tuple[float, float]]:
+WITHIN_SAMPLE = 0.5
+"""A first-order lag shorter than this many sample times acts within one sample (its pole exp(-ts/tau) under
+0.14): the record cannot tell it from any shorter lag or from none, and its range runs from 0."""
+LAGS = ("time_constant_s", "sensor_tau_s", "actuator_tau_s")
+
+
+def parameter_ranges(model: Model, ts_s: float) -> dict[str, tuple[float, float]]:
     """About 95 % ranges of the named causes' parameters (``RANGE_LOG``); the process gain's also holds its fit's
-    two standard errors.  The quantum is read off the record's lattice, not fitted: no range."""
+    two standard errors, and a lag within a sample (``WITHIN_SAMPLE``) runs from 0 to at least that.  The quantum
+    is read off the record's lattice, not fitted: no range."""
     out = {}
     for name, value in cause_parameters(model).items():
         k = RANGE_LOG.get(name)
@@ -183,6 +190,8 @@ def parameter_ranges(model: Model) -> dict[str, tuple[float, float]]:
         lo, hi = value * np.exp(-k), value * np.exp(k)
         if name == "gain_ratio" and np.isfinite(model.fit.gain_se):
             lo, hi = min(lo, value - 2 * model.fit.gain_se), max(hi, value + 2 * model.fit.gain_se)
+        if name in LAGS and value < WITHIN_SAMPLE * ts_s:
+            lo, hi = 0.0, max(hi, WITHIN_SAMPLE * ts_s)
         out[name] = (float(lo), float(hi))
     return out
 

@@ -222,7 +222,9 @@ def diagnosis_report(
             for t in shown_ties(d.ties, f, withheld)
         ],
         parameters={k: float(v) for k, v in params.items() if math.isfinite(v)},
-        parameter_ranges={k: r for k, r in d.parameter_ranges().items() if k in params and math.isfinite(params[k])},
+        parameter_ranges={
+            k: r for k, r in d.parameter_ranges(record.ts_s).items() if k in params and math.isfinite(params[k])
+        },
         candidates=candidates,
         base_error=base_error,
         extended_error=extended_error,

@@ -55,7 +55,7 @@ def test_the_hidden_cause_is_named_with_its_parameter(cause):
     record = _record(ext, fs, fd)
     d = diagnose(record)
     assert d.causes and d.causes[0] == cause, d.causes
-    found, ranges = cause_parameters(d.extended), d.parameter_ranges()
+    found, ranges = cause_parameters(d.extended), d.parameter_ranges(record.ts_s)
     for name, truth in ext.active().items():
         assert found[name] == pytest.approx(truth, rel=0.25), (name, found[name], truth)
         if name != "quantum_pct":  # read off the record's lattice: no range
@@ -87,7 +87,7 @@ def test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_tra
     at_read = s0 - slope * d.extended.hypothesis.actuator_tau_s
     assert at_read == pytest.approx(d.friction.s_pct)  # the line passes through the reading
     # the lag read twice too long, and its range (about 95 %) says so: it holds the true lag
-    lo, hi = d.parameter_ranges()["actuator_tau_s"]
+    lo, hi = d.parameter_ranges(record.ts_s)["actuator_tau_s"]
     assert d.extended.hypothesis.actuator_tau_s > 1.5 * ext.actuator_tau_s and lo <= ext.actuator_tau_s <= hi
     # no actuator lag, no line
     plain = diagnose(_record(Extensions(), fs, fd))
