@@ -3,8 +3,9 @@
 from stiction.bench.diagnose import _said_cannot_tell, _summary
 
 
-def _row(truth, named, ties):
-    return {"truth": truth, "named": named, "ties": ties, "params": {}, "gain_pct": 0.0, "covered": None,
+def _row(truth, named, ties, ranges=None):
+    return {"truth": truth, "named": named, "ties": ties, "params": {}, "ranges": ranges or {}, "gain_pct": 0.0,
+            "covered": None,
             "fs_fd_base": [1.0, 1.0], "fs_fd_ext": [1.0, 1.0], "fs_fd_true": [1.0, 1.0], "seconds": 1.0}  # fmt: skip
 
 
@@ -100,3 +101,13 @@ def test_the_bench_records_each_loop_over_the_samples_asked_and_refuses_too_few(
     assert json.loads(capsys.readouterr().out)["samples"] == 400
     assert main(argv[:-3] + ["--samples", "100"]) not in (0, None)
     assert "--samples 100" in capsys.readouterr().err
+
+
+def test_a_named_parameter_counts_as_held_where_the_truth_lies_in_its_range():
+    rows = [
+        _row({"dead_time_s": 3.0}, ["dead_time"], [], {"dead_time_s": [2.5, 3.5]}),  # held
+        _row({"dead_time_s": 3.0}, ["dead_time"], [], {"dead_time_s": [3.2, 4.0]}),  # named, range misses
+        _row({"dead_time_s": 3.0}, [], []),  # not named: no range to count
+    ]
+    s = _summary("dead_time", rows)
+    assert s["param_in_range"] == [1, 2] and s["param_in_range_share"] == 0.5
