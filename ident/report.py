@@ -10,7 +10,7 @@ from stiction.detect.features import stuck_travel
 from stiction.ident.cause_fit import residual_periods
 from stiction.ident.checks import blocking, data_checks, impossible_friction
 from stiction.ident.friction import Friction
-from stiction.ident.models import Diagnosis, Model, Tie, cause_parameters, is_lag_line
+from stiction.ident.models import WITHIN_SAMPLE, Diagnosis, Model, Tie, cause_parameters, is_lag_line
 from stiction.ident.process import NOMINAL
 from stiction.ident.record import Record
 from stiction.ident.trust import (
@@ -66,6 +66,8 @@ def process_out(model: Model, record: Record) -> schema.Process:
         kind, gain, gain_se = "self_regulating", rate * d.time_constant_s, rate_se * d.time_constant_s
     unit = "%/s per %" if kind == "integrating" else "% per %"
     extra = f", actuator lag {h.actuator_tau_s:.3g} s" if h.actuator_tau_s > 0 else ""
+    if d.time_constant_s is not None and d.time_constant_s < WITHIN_SAMPLE * record.ts_s:
+        extra += f" (a lag under half the {record.ts_s:.3g} s sample: a static gain, as far as this record shows)"
     return schema.Process(
         kind=kind,
         gain=float(gain),

@@ -29,3 +29,20 @@ def test_a_lag_within_a_sample_runs_from_zero(ts_s):
     assert 0.0 < long[0] < 30.0 * ts_s < long[1]
     lagged = parameter_ranges(_named("sensor_lag", sensor_tau_s=0.2 * ts_s), ts_s)["sensor_tau_s"]
     assert lagged[0] == 0.0
+
+
+def test_the_process_line_says_a_lag_within_half_a_sample_is_a_static_gain():
+    from dataclasses import replace
+
+    from stiction.ident.diagnose import diagnose
+    from stiction.ident.record import Record
+    from stiction.ident.report import process_out
+    from stiction.sim.loop import LoopSpec, simulate
+
+    r = simulate([LoopSpec(40.0, 15.0, seed=3)]).kept()
+    record = Record(r.op[0], r.pv[0], 1.0)
+    model = diagnose(record).extended
+    for tau, said in ((0.04, True), (5.0, False)):
+        h = replace(model.hypothesis, dynamics=Dynamics(time_constant_s=tau))
+        line = process_out(replace(model, hypothesis=h), record).description
+        assert ("static gain" in line) == said, line
