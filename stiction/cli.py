@@ -82,7 +82,7 @@ BATCH_COMMANDS = {"quantify", "diagnose", "report", "simulate", "train"}
 BATCH_BENCHES = {"sim", "accuracy", "diagnose", "measured", "detect", "sizing"}
 """Commands that compute and exit: their freed arrays stay in the heap for the next (``stiction.heap``; a fifth of
 a diagnosis was page faults).  Not the services (the agent, the publishers, the demo, the benchmarks that start
-them): an agent at 20,000 loops peaked at 598 MB so against 567 MB, and its CPU did not fall."""
+them): an agent at 20,000 loops peaked at 598 MB against 567 MB, and its CPU did not fall."""
 
 
 def holds_heap(args: argparse.Namespace) -> bool:

@@ -52,6 +52,7 @@ def _summary(path: str, r) -> str:
     limits = [t for t in r.cannot_tell if t.delta_criterion is None and not is_lag_line(t)]
     traded = [t for t in r.cannot_tell if is_lag_line(t)]
     fitted = [t for t in r.cannot_tell if t.delta_criterion is not None]
+
     def param(k: str, v: float) -> str:  # the value and its range (about 95 %), where it has one
         lo_hi = r.parameter_ranges.get(k)
         return f"{k} {v:.3g}" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
