@@ -30,6 +30,7 @@ def test_a_diagnosis_title_wraps_its_causes_and_carries_the_reports_warnings_who
     report = SimpleNamespace(
         loop_id="LIC1", causes=["sensor_lag", "process_gain", "dead_time", "external_oscillation"] * 3,
         parameters={"sensor_tau_s": 45.4, "gain_ratio": 0.649, "dead_time_s": 2.92, "osc_period_s": 864.0},
+        parameter_ranges={"dead_time_s": (2.2, 3.8)},
         base_error=1.71, extended_error=0.661, gain_pct=61.0, s_pct=0.12, s_se_pct=0.54, j_pct=0.09, j_se_pct=0.08,
         process=SimpleNamespace(description="integrating, dead time 2.92 s"), warnings=[doubt],
     )  # fmt: skip
@@ -37,6 +38,8 @@ def test_a_diagnosis_title_wraps_its_causes_and_carries_the_reports_warnings_who
     assert all(len(line) <= TITLE_WIDTH for line in lines) and len(lines) >= 4
     assert lines[0].startswith("LIC1: sensor_lag") and "THE END" in lines[-1]
     assert doubt in " ".join(line.strip() for line in lines)  # read whole, never cut
+    joined = " ".join(lines)
+    assert "dead_time_s 2.92 (2.2-3.8)" in joined and "(gain_ratio 0.649)" in joined  # a range where one is given
 
 def test_the_identified_models_pv_is_drawn_and_the_title_fits(tmp_path):
     import matplotlib.image as mpimg
