@@ -32,13 +32,21 @@ class Dynamics:
     dead_time_s: float = 0.0
     sensor_tau_s: float = 0.0
 
-    def describe(self) -> str:
-        kind = "integrating" if self.time_constant_s is None else f"first order, T {self.time_constant_s:.3g} s"
+    def describe(self, ranges: dict[str, tuple[float, float]] | None = None) -> str:
+        """In words; each value followed by its range (low-high) where ``ranges`` gives one, by parameter name."""
+        ranges = ranges or {}
+
+        def value(name: str, v: float) -> str:
+            lo_hi = ranges.get(name)
+            return f"{v:.3g} s" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
+
+        t = self.time_constant_s
+        kind = "integrating" if t is None else f"first order, T {value('time_constant_s', t)}"
         extra = []
         if self.dead_time_s > 0:
-            extra.append(f"dead time {self.dead_time_s:.3g} s")
+            extra.append(f"dead time {value('dead_time_s', self.dead_time_s)}")
         if self.sensor_tau_s > 0:
-            extra.append(f"sensor lag {self.sensor_tau_s:.3g} s")
+            extra.append(f"sensor lag {value('sensor_tau_s', self.sensor_tau_s)}")
         return ", ".join([kind, *extra])
 
 

@@ -10,7 +10,15 @@ from stiction.detect.features import stuck_travel
 from stiction.ident.cause_fit import residual_periods
 from stiction.ident.checks import blocking, data_checks, impossible_friction
 from stiction.ident.friction import Friction
-from stiction.ident.models import WITHIN_SAMPLE, Diagnosis, Model, Tie, cause_parameters, is_lag_line
+from stiction.ident.models import (
+    WITHIN_SAMPLE,
+    Diagnosis,
+    Model,
+    Tie,
+    cause_parameters,
+    is_lag_line,
+    parameter_ranges,
+)
 from stiction.ident.process import NOMINAL
 from stiction.ident.record import Record
 from stiction.ident.trust import (
@@ -65,7 +73,12 @@ def process_out(model: Model, record: Record) -> schema.Process:
         # continuous_plant keeps the high-frequency gain: K / (T s + 1) with K = rate * T
         kind, gain, gain_se = "self_regulating", rate * d.time_constant_s, rate_se * d.time_constant_s
     unit = "%/s per %" if kind == "integrating" else "% per %"
-    extra = f", actuator lag {h.actuator_tau_s:.3g} s" if h.actuator_tau_s > 0 else ""
+    ranges = parameter_ranges(model, record.ts_s)  # every named parameter's, about 95 %
+    told = f" +- {gain_se:.2g}" if h.gain_free and math.isfinite(gain_se) else ""  # one standard error, as S and J
+    extra = ""
+    if h.actuator_tau_s > 0:
+        lo_hi = ranges.get("actuator_tau_s")
+        extra = f", actuator lag {h.actuator_tau_s:.3g} s" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
     if d.time_constant_s is not None and d.time_constant_s < WITHIN_SAMPLE * record.ts_s:
         extra += f" (a lag under half the {record.ts_s:.3g} s sample: a static gain, as far as this record shows)"
     return schema.Process(
@@ -77,7 +90,7 @@ def process_out(model: Model, record: Record) -> schema.Process:
         sensor_tau_s=d.sensor_tau_s,
         actuator_tau_s=h.actuator_tau_s,
         sample_time_s=record.ts_s,
-        description=f"{d.describe()}, gain {gain:.3g} {unit}{extra}",
+        description=f"{d.describe(ranges)}, gain {gain:.3g}{told} {unit}{extra}",
     )
 
 

@@ -46,3 +46,22 @@ def test_the_process_line_says_a_lag_within_half_a_sample_is_a_static_gain():
         h = replace(model.hypothesis, dynamics=Dynamics(time_constant_s=tau))
         line = process_out(replace(model, hypothesis=h), record).description
         assert ("static gain" in line) == said, line
+
+
+def test_the_process_line_gives_each_named_parameter_its_range():
+    from dataclasses import replace
+
+    from stiction.ident.diagnose import diagnose
+    from stiction.ident.record import Record
+    from stiction.ident.report import process_out
+    from stiction.sim.loop import LoopSpec, simulate
+
+    r = simulate([LoopSpec(40.0, 15.0, seed=3)]).kept()
+    record = Record(r.op[0], r.pv[0], 1.0)
+    model = diagnose(record).extended
+    hyp = replace(model.hypothesis, dynamics=Dynamics(dead_time_s=3.0))
+    named = replace(model, hypothesis=hyp, causes=("dead_time",))
+    lo, hi = parameter_ranges(named, 1.0)["dead_time_s"]
+    assert f"dead time 3 s ({lo:.3g}-{hi:.3g})" in process_out(named, record).description
+    unnamed = replace(named, causes=())  # a dead time no cause stands for (none here): no range to give
+    assert "dead time 3 s," in process_out(unnamed, record).description
