@@ -49,7 +49,8 @@ class Sizing:
     model_pv_pct: np.ndarray | None = field(default=None, repr=False, compare=False)
     doubts: tuple[str, ...] = ()
     """What makes the band read doubtful (``ident.trust.band_doubts``), for the report beside the numbers."""
-    """PV as the identified model simulates it from the record's OP (its last samples), for plots."""
+    parameter_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """The diagnosis's ranges (about 95 %) of its named parameters (``ident.models.parameter_ranges``)."""
 
     @property
     def read(self) -> bool:
@@ -73,7 +74,11 @@ def size(op_pct: np.ndarray, pv_pct: np.ndarray, ts_s: float, name: str = "loop"
 
 
 def from_report(report) -> Sizing:
-    """The sizing a diagnosis report (``schemas.diagnosis.DiagnosisReport``) supports."""
+    """The sizing a diagnosis report (``schemas.diagnosis.DiagnosisReport``) supports, with its parameters' ranges."""
+    return replace(_sizing(report), parameter_ranges={k: tuple(v) for k, v in report.parameter_ranges.items()})
+
+
+def _sizing(report) -> Sizing:
     nan = float("nan")
     s, j, s_se, j_se = (nan if v is None else float(v) for v in (report.s_pct, report.j_pct, report.s_se_pct,
                                                                   report.j_se_pct))  # fmt: skip

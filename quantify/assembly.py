@@ -45,6 +45,10 @@ def estimate_block(values) -> Estimate:
     return Estimate(fs_pct=opt(fs), fd_pct=opt(fd), fs_se_pct=opt(fs_se), fd_se_pct=opt(fd_se))
 
 
+PROCESS_RANGES = ("time_constant_s", "dead_time_s")
+"""The diagnosis's ranges a report's ``process`` carries: those of its own fields."""
+
+
 def process_info(w: Window, ts_s: float, identified: bool) -> ProcessInfo:
     """The thesis's level loop where declared or recognised (``quantify.policy.canonical_level``), else unknown."""
     if w.process == "level" or identified:
@@ -111,8 +115,9 @@ def assemble(
         p = sizing.process
         head.append(identified_warning(sizing))
         update["process"] = ProcessInfo(
-            kind=p.kind, source="identified", gain=p.gain, time_constant_s=p.time_constant_s,
+            kind=p.kind, source="identified", gain=p.gain, gain_se=p.gain_se, time_constant_s=p.time_constant_s,
             dead_time_s=p.dead_time_s, sample_time_s=draft.process.sample_time_s, description=p.description,
+            parameter_ranges={k: v for k, v in sizing.parameter_ranges.items() if k in PROCESS_RANGES},
         )  # fmt: skip
         if not sizing.read:
             tail.append(NOT_READ_PREFIX + sizing.why)

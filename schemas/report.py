@@ -28,8 +28,14 @@ class ProcessInfo(BaseModel):
         description="declared with --process, identified from the data (stiction diagnose), or not known"
     )
     gain: float | None = Field(None, description="%/s per % (integrating) or % per % (self-regulating)")
+    gain_se: float | None = Field(None, description="one standard error of an identified gain")
     time_constant_s: float | None = None
     dead_time_s: float | None = None
+    parameter_ranges: dict[str, tuple[float, float]] = Field(
+        default_factory=dict,
+        description="about 95 % range (low, high) of an identified time_constant_s and dead_time_s, as stiction "
+        "diagnose gives them (from how far it read them on simulated loops)",
+    )
     sample_time_s: float
     description: str | None = Field(None, description="the identified model in words, where one was identified")
 

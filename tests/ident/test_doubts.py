@@ -46,7 +46,7 @@ def test_a_sizing_read_from_a_diagnosis_carries_its_doubts():
     from stiction.ident.sizing import from_report
 
     report = SimpleNamespace(s_pct=0.12, j_pct=0.09, s_se_pct=0.54, j_se_pct=0.08, slips=660, warnings=[],
-                             cannot_tell=[], process=_process("self_regulating", 1.2))  # fmt: skip
+                             cannot_tell=[], parameter_ranges={}, process=_process("self_regulating", 1.2))  # fmt: skip
     sizing = from_report(report)
     assert sizing.read and len(sizing.doubts) == 1 and "cannot tell from none" in sizing.doubts[0]
     report.s_se_pct = 0.05

@@ -12,7 +12,8 @@ from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
 
 def _report(**kw):
-    base = dict(s_pct=10.0, j_pct=4.0, s_se_pct=0.1, j_se_pct=0.2, process=None, slips=6, warnings=[], cannot_tell=[])
+    base = dict(s_pct=10.0, j_pct=4.0, s_se_pct=0.1, j_se_pct=0.2, process=None, slips=6, warnings=[], cannot_tell=[],
+                parameter_ranges={"dead_time_s": [1.5, 2.6]})  # fmt: skip
     return SimpleNamespace(**(base | kw))
 
 
@@ -30,6 +31,7 @@ def test_the_uncertainty_adds_the_model_error_to_the_fits_own():
     )
     s = from_report(_report())
     assert s.read and (s.s_pct, s.j_pct, s.s_se_pct, s.j_se_pct) == (10.0, 4.0, 0.1, 0.2)
+    assert s.parameter_ranges == {"dead_time_s": (1.5, 2.6)}  # the diagnosis's ranges travel with the sizing
     fs, fd, fs_se, fd_se = s.fs_fd_pct()
     assert (fs, fd) == pytest.approx((16.8, 7.2)) and fs_se == fd_se == pytest.approx(1.2 * math.hypot(0.1, 0.2))
 

@@ -52,8 +52,12 @@ def test_the_pipelines_draft_says_nothing_of_an_unknown_process_and_its_report_s
 def test_a_sizing_is_assembled_into_the_draft_and_a_newer_one_replaces_it_without_leftovers(quantifier, windows):
     _, unknown = windows
     draft = quantifier.results([unknown])[0].draft
-    read = assemble(draft, Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6), 900.0, note="re-read")
+    ranges = {"time_constant_s": (10.3, 14.0), "dead_time_s": (1.5, 2.6), "actuator_tau_s": (0.5, 3.0)}
+    read = assemble(draft, Sizing(2.0, 0.5, 0.4, 0.6, PROCESS, 6, parameter_ranges=ranges), 900.0, note="re-read")
     assert read.method == "identified" and read.s_pct == 2.0 and read.estimate_t_end_s == 900.0
+    # the identified process's numbers with their uncertainty: the gain's standard error, the ranges of its fields
+    assert read.process.gain_se == 0.05
+    assert read.process.parameter_ranges == {"time_constant_s": (10.3, 14.0), "dead_time_s": (1.5, 2.6)}
     assert not set(PROCESS_WARNINGS) & set(read.warnings) and read.warnings[-1] == "re-read"
     assert read.warnings[0].startswith("process identified from OP and PV")
     nan = float("nan")
