@@ -23,6 +23,12 @@ from stiction.sim.process import LOOPS, ProcessModel, continuous_plant, discreti
 NOMINAL = LOOPS["level"]
 
 
+def ranged(text: str, lo_hi: tuple[float, float] | None) -> str:
+    """``text`` (a value in words) followed by its range, ``(low-high)``, where it has one: how every range a
+    diagnosis gives is written (the process line, the summary, the plot's title)."""
+    return text + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
+
+
 @dataclass(frozen=True)
 class Dynamics:
     """Everything about the process but its gain (which the fits solve for linearly)."""
@@ -37,8 +43,7 @@ class Dynamics:
         ranges = ranges or {}
 
         def value(name: str, v: float) -> str:
-            lo_hi = ranges.get(name)
-            return f"{v:.3g} s" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
+            return ranged(f"{v:.3g} s", ranges.get(name))
 
         t = self.time_constant_s
         kind = "integrating" if t is None else f"first order, T {value('time_constant_s', t)}"

@@ -19,7 +19,7 @@ from stiction.ident.models import (
     is_lag_line,
     parameter_ranges,
 )
-from stiction.ident.process import NOMINAL
+from stiction.ident.process import NOMINAL, ranged
 from stiction.ident.record import Record
 from stiction.ident.trust import (
     band_doubts,
@@ -75,10 +75,8 @@ def process_out(model: Model, record: Record) -> schema.Process:
     unit = "%/s per %" if kind == "integrating" else "% per %"
     ranges = parameter_ranges(model, record.ts_s)  # every named parameter's, about 95 %
     told = f" +- {gain_se:.2g}" if h.gain_free and math.isfinite(gain_se) else ""  # one standard error, as S and J
-    extra = ""
-    if h.actuator_tau_s > 0:
-        lo_hi = ranges.get("actuator_tau_s")
-        extra = f", actuator lag {h.actuator_tau_s:.3g} s" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
+    lag = h.actuator_tau_s
+    extra = ranged(f", actuator lag {lag:.3g} s", ranges.get("actuator_tau_s")) if lag > 0 else ""
     if d.time_constant_s is not None and d.time_constant_s < WITHIN_SAMPLE * record.ts_s:
         extra += f" (a lag under half the {record.ts_s:.3g} s sample: a static gain, as far as this record shows)"
     return schema.Process(
@@ -92,6 +90,18 @@ def process_out(model: Model, record: Record) -> schema.Process:
         sample_time_s=record.ts_s,
         description=f"{d.describe(ranges)}, gain {gain:.3g}{told} {unit}{extra}",
     )
+
+
+def causes_text(report: schema.DiagnosisReport) -> str:
+    """The named causes in words, each with its parameters and their ranges (``dead_time (dead_time_s 2.87
+    (2.17-3.79))``), as the summary and the plot's title give them; empty where none is named."""
+    from stiction.sim.extensions import CATALOGUE
+
+    def params(cause: str) -> str:
+        named = [k for k in CATALOGUE.get(cause, ()) if k in report.parameters]
+        return ", ".join(ranged(f"{k} {report.parameters[k]:.3g}", report.parameter_ranges.get(k)) for k in named)
+
+    return ", ".join(f"{c} ({params(c)})" for c in report.causes)
 
 
 def residual_out(vf: ValveFit, record: Record, rss_override: float | None = None) -> schema.Residual:

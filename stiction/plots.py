@@ -80,16 +80,9 @@ def plot_loop(out, window, report, details, title: bool = True, dpi: int = 90):
 
 
 def _diagnosis_title(report) -> str:
-    from stiction.sim.extensions import CATALOGUE
+    from stiction.ident.report import causes_text
 
-    def param(k: str) -> str:  # the value and its range (about 95 %), as the summary prints them
-        lo_hi = report.parameter_ranges.get(k)
-        return f"{k} {report.parameters[k]:.3g}" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
-
-    causes = ", ".join(
-        f"{c} (" + ", ".join(param(k) for k in CATALOGUE.get(c, ()) if k in report.parameters) + ")"
-        for c in report.causes
-    )
+    causes = causes_text(report)
     sj = (
         f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} %, J {report.j_pct:.2f} ± {report.j_se_pct:.2f} % of span"
         if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None

@@ -44,6 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _summary(path: str, r) -> str:
     from stiction.ident.models import is_lag_line
+    from stiction.ident.report import causes_text
 
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"
@@ -52,14 +53,7 @@ def _summary(path: str, r) -> str:
     limits = [t for t in r.cannot_tell if t.delta_criterion is None and not is_lag_line(t)]
     traded = [t for t in r.cannot_tell if is_lag_line(t)]
     fitted = [t for t in r.cannot_tell if t.delta_criterion is not None]
-
-    def param(k: str, v: float) -> str:  # the value and its range (about 95 %), where it has one
-        lo_hi = r.parameter_ranges.get(k)
-        return f"{k} {v:.3g}" + (f" ({lo_hi[0]:.3g}-{lo_hi[1]:.3g})" if lo_hi else "")
-
-    causes = ", ".join(
-        f"{c} ({', '.join(param(k, v) for k, v in r.parameters.items() if k in _params(c))})" for c in r.causes
-    )
+    causes = causes_text(r)
     lines = [
         f"{path}",
         f"  process: {r.process.description}" + "".join(f" (or {t.note})" for t in limits),
@@ -103,12 +97,6 @@ def _ties(ties, after_causes: bool) -> str:
         return f"{name(t.named)} or {name(t.alternative)}{params}, criterion {t.delta_criterion:+.1f}"
 
     return "; ".join(one(t) for t in ties)
-
-
-def _params(cause: str) -> tuple[str, ...]:
-    from stiction.sim.extensions import CATALOGUE
-
-    return CATALOGUE.get(cause, ())
 
 
 def _plot(png: Path, record, d, report) -> Path:
