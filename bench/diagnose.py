@@ -317,10 +317,8 @@ def print_header(per_cause: int, draws: str = "catalogue", seed: int = SEED, sam
 def print_row(c: str, s: dict) -> None:
     """One cause's figures, as ``bench_diagnose`` finishes it (its ``progress``)."""
     first = ", ".join(f"{k} {v}" for k, v in sorted(s["first_named"].items(), key=lambda kv: -kv[1]))
-    param = "-" if s["param_rel_err_median"] is None else f"{100 * s['param_rel_err_median']:.0f} %"
-    held = "-" if s["param_in_range_share"] is None else f"{100 * s['param_in_range_share']:.0f} %"
-    within = s["fs_fd_within_2se_share"]
-    cover = "-" if within is None else f"{100 * within:.0f} %"
+    shares = ("param_rel_err_median", "param_in_range_share", "fs_fd_within_2se_share")
+    param, held, cover = (_pct(s[k]) for k in shares)
     print(
         f"{c:22s} {100 * s['named_share']:5.0f} % {100 * s['cannot_tell_share']:5.0f} % {param:>6s} {held:>6s} "
         f"{100 * s['gain_positive_share']:5.0f} % "
