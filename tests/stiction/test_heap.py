@@ -2,6 +2,7 @@
 
 Each case runs in a fresh interpreter: glibc's malloc settings belong to the process."""
 
+import json
 import os
 import subprocess
 import sys
@@ -56,6 +57,9 @@ def test_a_batch_command_holds_the_heap_for_its_spawned_workers_and_a_users_sett
     )
     assert _run(code).splitlines()[-1] == f"{32 * 1024 * 1024} {TRIM_THRESHOLD_BYTES}"
     assert _run(code, {"MALLOC_TRIM_THRESHOLD_": "65536"}).splitlines()[-1] == f"{32 * 1024 * 1024} 65536"
+    # a value that is no number: glibc ignores it, so does the command, and the work is done all the same
+    out = _run(code, {"MALLOC_TRIM_THRESHOLD_": "lots"}).splitlines()
+    assert out[-1] == f"{32 * 1024 * 1024} lots" and json.loads(out[0])["verdict"]
 
 
 def test_the_services_keep_glibcs_own_heap():
