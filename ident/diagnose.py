@@ -43,6 +43,7 @@ from stiction.ident.models import (
     APPLY,
     MARGIN,
     MAX_CAUSES,
+    RANGE_LOG,
     TIE_CRITERION,
     Candidate,
     Diagnosis,
@@ -180,11 +181,13 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES, threads: int = 1) -> 
         candidates["quantization"] = Candidate(
             "quantization", {} if q is None else {"quantum_pct": q}, None, None, None, note=note
         )
-    read = widened(friction(chosen.fit, record), chosen.spread)
-    played = [] if chosen.hypothesis.linear_valve else deadband_tie(read) + lag_band_tie(chosen, record, read)
+    fitted = widened(friction(chosen.fit, record), chosen.spread)
+    lag_sd = lag_s_sd_pct(chosen, record) if np.isfinite(fitted.s_pct) else 0.0
+    read = lag_widened(fitted, lag_sd)  # the deadband's trade is with fd as fitted, not along the lag's line
+    played = [] if chosen.hypothesis.linear_valve else deadband_tie(fitted) + lag_band_tie(chosen, record, read)
     return Diagnosis(
         base, chosen, candidates, steps, friction(base.fit, record), read, stiction_delta,
-        ties=ties(steps, chosen, record) + played,
+        ties=ties(steps, chosen, record) + played, lag_s_sd_pct=lag_sd,
     )  # fmt: skip
 
 
@@ -270,6 +273,39 @@ def lag_band_tie(chosen: Model, record: Record, read: Friction) -> list[Tie]:
             f"about {s0:.3g} - {slope:.3g} x lag (s) at another, which a stroke test's lag reads S off{rougher}",
         )
     ]
+
+
+RANGE_SDS = 2.0
+"""Standard deviations either side that a named parameter's range (``ident.models.RANGE_LOG``, about 95 %) spans."""
+
+
+def lag_s_sd_pct(chosen: Model, record: Record) -> float:
+    """S's standard deviation from the actuator lag's doubt (``lag_widened``), % of span; 0 where no lag is named
+    with a sticky valve."""
+    slope = lag_slope(chosen, record)
+    if slope is None:
+        return 0.0
+    return slope * chosen.hypothesis.actuator_tau_s * RANGE_LOG["actuator_tau_s"] / RANGE_SDS
+
+
+def lag_widened(read: Friction, s_sd_pct: float) -> Friction:
+    """``read`` with the actuator lag's own uncertainty carried along the line on which lag and band trade
+    (``lag_band_tie``): ``s_sd_pct`` (``lag_s_sd_pct``: the lag's standard deviation, its range's log half-width
+    over ``RANGE_SDS`` times the lag, times the line's slope) added in quadrature to S's error, and half of it (in %
+    of 500 lbf) to fs's and fd's (band and stop each move half of S); J does not move along the line.
+
+    The errors of a fit at one lag do not see the lag's doubt: on the 8 actuator lags of seed 9191's wide draws
+    (``stiction bench diagnose``), lags read 0.4-2.1 times the truth, S read within two of its errors held the
+    truth on 3 of 8, the worst 5.6 errors off (a lag of 4.0 s read 8.1 s, S 10.4 % read against 22)."""
+    if not (s_sd_pct > 0 and np.isfinite(read.s_pct)):
+        return read
+    side = PCT_OF_500LBF_PER_PCT_OF_SPAN * s_sd_pct / 2
+    return replace(
+        read,
+        s_se_pct=float(np.hypot(read.s_se_pct, s_sd_pct)),
+        fs_se_pct=float(np.hypot(read.fs_se_pct, side)),
+        fd_se_pct=float(np.hypot(read.fd_se_pct, side)),
+    )
 
 
 GAIN_SE_COVER = 2.0

@@ -113,6 +113,9 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     ties: list[Tie] = field(default_factory=list)
     """Answers the data cannot tell from the one given (``ident.diagnose.ties``)."""
+    lag_s_sd_pct: float = 0.0
+    """The part of ``friction``'s S error that is the actuator lag's doubt carried along the line on which lag and
+    band trade (``ident.diagnose.lag_widened``); 0 where no lag is named."""
 
     @property
     def causes(self) -> tuple[str, ...]:

@@ -158,13 +158,16 @@ def _worse_course(base_error: float, extended_error: float, unfit: bool) -> str:
     )
 
 
-def shown_ties(ties: list[Tie], f: Friction, withheld: bool) -> list[Tie]:
+def shown_ties(ties: list[Tie], f: Friction, withheld: bool, lag_s_sd_pct: float = 0.0) -> list[Tie]:
     """The ties a report gives.  The line along which an actuator's lag and the band trade
     (``ident.diagnose.lag_band_tie``) describes a band: where none is given, or its interval of two standard
     errors holds 0 (a band the data cannot tell from none, ``ident.trust.band_doubts``), there is no band to trade
     and the line is left out (a healthy level loop cycling under a load, read as a lag of 38 s before a valve with
-    a band of 0.15 +- 0.08 %, had its line give 3.7 % at no lag)."""
-    band = not withheld and math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and not holds_zero(f.s_pct, f.s_se_pct)
+    a band of 0.15 +- 0.08 %, had its line give 3.7 % at no lag).  S's error without the lag's own doubt
+    (``lag_s_sd_pct``, ``ident.diagnose.lag_widened``) decides: the line is what that doubt is about."""
+    s_se = math.sqrt(max(f.s_se_pct**2 - lag_s_sd_pct**2, 0.0)) if math.isfinite(f.s_se_pct) else f.s_se_pct
+    told = not holds_zero(f.s_pct, s_se, f.j_pct, f.j_se_pct)
+    band = not withheld and math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and told
     return [t for t in ties if band or not is_lag_line(t)]
 
 
@@ -225,7 +228,7 @@ def diagnosis_report(
         notes.append(_worse_course(base_error, extended_error, unfit=False))
     process = process_out(d.extended, record)
     if not withheld:
-        notes += band_doubts(f.s_pct, f.s_se_pct, process)
+        notes += band_doubts(f.s_pct, f.s_se_pct, process, f.j_pct, f.j_se_pct)
     if d.linear_valve_delta <= 0 and not d.notes and not blocking(problems):
         notes.append(
             "a valve that does not stick explains PV as well: the friction numbers are not supported by the data"
@@ -244,7 +247,7 @@ def diagnosis_report(
                 parameters={k: float(v) for k, v in t.parameters.items() if math.isfinite(v)},
                 note=t.note,
             )
-            for t in shown_ties(d.ties, f, withheld)
+            for t in shown_ties(d.ties, f, withheld, d.lag_s_sd_pct)
         ],
         parameters={k: float(v) for k, v in params.items() if math.isfinite(v)},
         parameter_ranges={

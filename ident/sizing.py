@@ -92,7 +92,7 @@ def _sizing(report) -> Sizing:
             "separable from the process gain in this record"
         )
         return Sizing(nan, nan, nan, nan, process, slips, why)
-    doubts = tuple(band_doubts(s, s_se, process)) + lag_doubt(report, s, s_se)
+    doubts = tuple(band_doubts(s, s_se, process, j, j_se)) + lag_doubt(report, s, s_se)
     return Sizing(s, j, s_se, j_se, process, slips, doubts=doubts)
 
 

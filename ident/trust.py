@@ -80,17 +80,25 @@ too small to be the valve's (a measured flow loop read 112 with a band of 2.3 %)
 the measured windows."""
 
 
-def holds_zero(s_pct: float, s_se_pct: float) -> bool:
+def holds_zero(s_pct: float, s_se_pct: float, j_pct: float = math.nan, j_se_pct: float = math.nan) -> bool:
     """S's interval of two standard errors holds 0: a band the data cannot tell from none (False where either is
-    not a number)."""
+    not a number).  A slip J whose own interval excludes 0 tells the band from none whatever S's error: a valve's
+    band is at least its slip (S = J + twice the stop), so S's interval is read from J's lower end up.  S's error
+    is symmetric where its doubt is not: an actuator lag's carries S along a line that ends at J
+    (``ident.diagnose.lag_widened``)."""
+    if math.isfinite(j_pct) and math.isfinite(j_se_pct) and j_pct - 2 * j_se_pct > 0:
+        return False
     return math.isfinite(s_pct) and math.isfinite(s_se_pct) and s_pct - 2 * s_se_pct <= 0
 
 
-def band_doubts(s_pct: float, s_se_pct: float, process) -> list[str]:
+def band_doubts(
+    s_pct: float, s_se_pct: float, process, j_pct: float = math.nan, j_se_pct: float = math.nan
+) -> list[str]:
     """What makes a band read doubtful though the fit gives it (``process``: a ``schemas.diagnosis.Process``):
-    an interval of two standard errors that holds no band at all, and a process gain no valve loop has."""
+    an interval of two standard errors that holds no band at all (a slip read clear of 0 is a band:
+    ``holds_zero``), and a process gain no valve loop has."""
     out = []
-    if holds_zero(s_pct, s_se_pct):
+    if holds_zero(s_pct, s_se_pct, j_pct, j_se_pct):
         out.append(
             f"the band S {s_pct:.3g} +- {s_se_pct:.2g} % of span: its interval of two standard errors holds "
             "0, a band the data cannot tell from none; not a valve job on this evidence alone"

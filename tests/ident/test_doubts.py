@@ -27,6 +27,16 @@ def test_a_band_whose_interval_holds_zero_is_said_to_be_indistinguishable_from_n
     assert _doubts(_friction(2.0, 0.4), _process("self_regulating", 1.2)) == []
 
 
+def test_a_slip_read_clear_of_zero_tells_the_band_from_none_whatever_ss_error():
+    """A valve's band is at least its slip: where J's interval excludes 0, S's wide error (an actuator lag's doubt,
+    carried along the line that ends at J) does not make the band one the data cannot tell from none."""
+    process = _process("integrating", 0.07)
+    assert band_doubts(11.7, 15.2, process, 11.1, 3.5) == []
+    said = band_doubts(11.7, 15.2, process, 11.1, 6.0)  # J's interval holds 0 as well
+    assert len(said) == 1 and "cannot tell from none" in said[0]
+    assert band_doubts(11.7, 15.2, process) == said  # no slip read: S alone decides, as before
+
+
 def test_a_process_gain_no_valve_loop_has_is_doubted_where_it_is_a_static_gain():
     said = _doubts(_friction(2.3, 0.75), _process("self_regulating", 112.0))
     assert len(said) == 1 and "112 % of span per % of travel" in said[0]
