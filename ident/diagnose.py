@@ -63,9 +63,9 @@ gain's first pass keeps the slips read at the nominal gain, which a gain of 0.75
 draws its screen lay 40 behind none's, and the full fit, 1 behind the canonical's, was never made, so the report said
 nothing of a gain the data allow as well (2026-11-27; `stiction bench diagnose --draws wide --causes process_gain`,
 chosen on seed 9191, judged on 8383, 4747, 3131, 5757, 6262: gains named 33 -> 35 of 40, named or tied 34 -> 37,
-their fs/fd 2.73 -> 2.28 and 2.28 -> 0.43 pp where it moved, one self-regulating lag of 330 s (past the 167 s the record tells) now none
-with the lag's tie, since the gain's full fit read slips the canonical model fits as well; no canonical loop given a
-cause)."""
+their fs/fd 2.73 -> 2.28 and 2.28 -> 0.43 pp where it moved, one self-regulating lag of 330 s (past the 167 s the
+record tells) now none with the lag's tie, since the gain's full fit read slips the canonical model fits as well; no
+canonical loop given a cause)."""
 
 
 def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple[dict[str, Candidate], Model]:
