@@ -23,10 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from stiction.ident.diagnose import DEADBAND_WIDENS_PCT, diagnose
+from stiction.ident.diagnose import diagnose
 from stiction.ident.models import cause_parameters, is_lag_line
 from stiction.ident.record import Record
 from stiction.ident.report import diagnosis_report
+from stiction.ident.ties import DEADBAND_WIDENS_PCT
 from stiction.sim.extensions import CATALOGUE
 from stiction.sim.grid import EFFECT_RANGES, effect_loops
 from stiction.sim.loop import DURATION_S, WARMUP_S, simulate
@@ -60,7 +61,7 @@ def _one(spec, samples: int | None = None) -> dict:
         "s_true": s_true,
         "s_read": _nan(rep.s_pct),
         "s_se": _nan(rep.s_se_pct),
-        # S on the report's lag line at the true lag (ident.diagnose.lag_band_tie), where it gives one
+        # S on the report's lag line at the true lag (ident.ties.lag_band_tie), where it gives one
         "s_on_line_at_true_lag": lines[0]["s_pct_at_no_lag"] - lines[0]["s_pct_per_lag_s"] * lag if lines and lag > 0
         else float("nan"),
         "named": list(d.causes),

@@ -95,7 +95,7 @@ class Tie:
 
 
 def is_lag_line(tie) -> bool:
-    """The actuator lag's line (``ident.diagnose.lag_band_tie``) among a diagnosis's ``Tie`` s or a report's
+    """The actuator lag's line (``ident.ties.lag_band_tie``) among a diagnosis's ``Tie`` s or a report's
     ``cannot_tell``: the lag named, and the same lag with another band as the alternative."""
     return tie.named == tie.alternative == "actuator_lag"
 
@@ -112,10 +112,10 @@ class Diagnosis:
     """Criterion of a valve without stiction minus the extended model's (positive: stiction earns its place)."""
     notes: list[str] = field(default_factory=list)
     ties: list[Tie] = field(default_factory=list)
-    """Answers the data cannot tell from the one given (``ident.diagnose.ties``)."""
+    """Answers the data cannot tell from the one given (``ident.ties.ties``)."""
     lag_s_sd_pct: float = 0.0
     """The part of ``friction``'s S error that is the actuator lag's doubt carried along the line on which lag and
-    band trade (``ident.diagnose.lag_widened``); 0 where no lag is named."""
+    band trade (``ident.ties.lag_widened``); 0 where no lag is named."""
 
     @property
     def causes(self) -> tuple[str, ...]:
@@ -172,7 +172,7 @@ Measured on ``stiction bench diagnose --draws wide`` loops of seeds 777-782 (8 l
 each; the 18-46 loops a parameter where its cause was named), never the bench's seed; judged there after.  The
 median errors were far smaller (log 0.004-0.04; the actuator's lag 0.27): the range is what a 95 % claim needs,
 not the typical error.  An actuator lag's is wide (a factor of e) because a lag trades with the band
-(``ident.diagnose.lag_band_tie``)."""
+(``ident.ties.lag_band_tie``)."""
 
 
 WITHIN_SAMPLE = 0.5

@@ -160,11 +160,11 @@ def _worse_course(base_error: float, extended_error: float, unfit: bool) -> str:
 
 def shown_ties(ties: list[Tie], f: Friction, withheld: bool, lag_s_sd_pct: float = 0.0) -> list[Tie]:
     """The ties a report gives.  The line along which an actuator's lag and the band trade
-    (``ident.diagnose.lag_band_tie``) describes a band: where none is given, or its interval of two standard
+    (``ident.ties.lag_band_tie``) describes a band: where none is given, or its interval of two standard
     errors holds 0 (a band the data cannot tell from none, ``ident.trust.band_doubts``), there is no band to trade
     and the line is left out (a healthy level loop cycling under a load, read as a lag of 38 s before a valve with
     a band of 0.15 +- 0.08 %, had its line give 3.7 % at no lag).  S's error without the lag's own doubt
-    (``lag_s_sd_pct``, ``ident.diagnose.lag_widened``) decides: the line is what that doubt is about."""
+    (``lag_s_sd_pct``, ``ident.ties.lag_widened``) decides: the line is what that doubt is about."""
     s_se = math.sqrt(max(f.s_se_pct**2 - lag_s_sd_pct**2, 0.0)) if math.isfinite(f.s_se_pct) else f.s_se_pct
     told = not holds_zero(f.s_pct, s_se, f.j_pct, f.j_se_pct)
     band = not withheld and math.isfinite(f.s_pct) and math.isfinite(f.s_se_pct) and told

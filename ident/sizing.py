@@ -97,7 +97,7 @@ def _sizing(report) -> Sizing:
 
 
 def lag_doubt(report, s_pct: float, s_se_pct: float) -> tuple[str, ...]:
-    """Where the diagnosis names an actuator lag and gives its line (``ident.diagnose.lag_band_tie``: S at no lag and
+    """Where the diagnosis names an actuator lag and gives its line (``ident.ties.lag_band_tie``: S at no lag and
     its slope), and the line moves S over the lag read by more than S's standard error: say so beside S, which a
     stroke test's lag would correct.  Where it moves S less (a 10 s flow loop of the StictionGPT plant: 0.2 % over a
     lag of 41 s, S 2.40 +- 0.49), the lag does not matter and nothing is said."""

@@ -85,7 +85,7 @@ def holds_zero(s_pct: float, s_se_pct: float, j_pct: float = math.nan, j_se_pct:
     not a number).  A slip J whose own interval excludes 0 tells the band from none whatever S's error: a valve's
     band is at least its slip (S = J + twice the stop), so S's interval is read from J's lower end up.  S's error
     is symmetric where its doubt is not: an actuator lag's carries S along a line that ends at J
-    (``ident.diagnose.lag_widened``)."""
+    (``ident.ties.lag_widened``)."""
     if math.isfinite(j_pct) and math.isfinite(j_se_pct) and j_pct - 2 * j_se_pct > 0:
         return False
     return math.isfinite(s_pct) and math.isfinite(s_se_pct) and s_pct - 2 * s_se_pct <= 0

@@ -9,11 +9,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from stiction.ident.diagnose import DEADBAND_WIDENS_PCT, deadband_tie, diagnose, lag_widened
+from stiction.ident.diagnose import diagnose
 from stiction.ident.friction import Friction as ReadFriction
 from stiction.ident.friction import friction
 from stiction.ident.models import cause_parameters, is_lag_line
 from stiction.ident.record import Record
+from stiction.ident.ties import DEADBAND_WIDENS_PCT, deadband_tie, lag_widened
 from stiction.sim.actuator import actuate
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
@@ -98,7 +99,7 @@ def test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_tra
 
 def test_an_actuator_lags_doubt_widens_s_and_not_j():
     """The known loop above: S read about half the truth.  Its error, the lag's own doubt carried along the line
-    (``ident.diagnose.lag_widened``), now holds the truth within two, and fs's and fd's too; J, which the line does
+    (``ident.ties.lag_widened``), now holds the truth within two, and fs's and fd's too; J, which the line does
     not move, keeps the fit's error and holds the truth as it did.  Without a lag nothing is widened."""
     ext, fs, fd = HIDDEN["actuator_lag"]
     record = _record(ext, fs, fd)

@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 
 from stiction.ident.cause_fit import longest_lag_s, told_lag_s
-from stiction.ident.diagnose import diagnose, ties
+from stiction.ident.diagnose import diagnose
 from stiction.ident.friction import Friction as ReadFriction
 from stiction.ident.models import TIE_CRITERION, Candidate, Tie
 from stiction.ident.record import Record
 from stiction.ident.report import diagnosis_report, shown_ties
+from stiction.ident.ties import ties
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.extensions import Extensions
 from stiction.sim.loop import LoopSpec, simulate
@@ -134,7 +135,7 @@ def test_the_lags_line_is_given_only_beside_a_band_the_data_tell_from_none():
     no_band = ReadFriction(0.15, 0.07, 0.08, 0.08, 0.3, 0.1, 0.2, 0.2, 20)  # 0.15 +- 0.08: holds 0
     assert shown_ties([line, deadband], no_band, withheld=False) == [deadband]
     assert shown_ties([line, deadband], band, withheld=True) == [deadband]
-    # S's error wide from the lag's own doubt alone (ident.diagnose.lag_widened): the line is what it is about
+    # S's error wide from the lag's own doubt alone (ident.ties.lag_widened): the line is what it is about
     doubted = ReadFriction(2.0, 0.5, 1.5, 0.3, 4.0, 3.0, 1.8, 1.8, 20)  # 2.0 +- 1.5, of which 1.47 the lag's
     assert shown_ties([line, deadband], doubted, withheld=False) == [deadband]
     assert shown_ties([line, deadband], doubted, withheld=False, lag_s_sd_pct=1.47) == [line, deadband]
