@@ -116,6 +116,17 @@ def test_an_actuator_lags_doubt_widens_s_and_not_j():
     assert d.lag_s_sd_pct > 10 * fitted.s_se_pct
 
 
+def test_a_process_gain_whose_first_pass_lies_far_behind_is_fitted_in_full_and_named():
+    """A gain of 0.75 read through the slips the nominal gain reads: its first-pass fit lay far behind none's, the
+    full fit was never made, and the diagnosis said none without a word of a gain (``ident.diagnose.SCREEN_BLIND``)."""
+    spec = LoopSpec(48.6, 26.6, disturbance=Disturbance("gaussian", "output", 0.034),
+                    extensions=Extensions(gain_ratio=0.75), seed=5)  # fmt: skip
+    r = simulate([spec]).kept()
+    d = diagnose(Record(r.op[0], r.pv[0], 1.0))
+    assert d.causes == ("process_gain",)
+    assert cause_parameters(d.extended)["gain_ratio"] == pytest.approx(0.75, abs=0.02)
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_no_cause_is_invented_for_the_canonical_loop(seed):
     record = _record(Extensions(), 35.0, 12.0, seed=seed, noise=0.03)
