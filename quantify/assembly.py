@@ -45,7 +45,7 @@ def estimate_block(values) -> Estimate:
     return Estimate(fs_pct=opt(fs), fd_pct=opt(fd), fs_se_pct=opt(fs_se), fd_se_pct=opt(fd_se))
 
 
-PROCESS_RANGES = ("time_constant_s", "dead_time_s")
+PROCESS_RANGES = ("time_constant_s", "dead_time_s", "sensor_tau_s", "actuator_tau_s")
 """The diagnosis's ranges a report's ``process`` carries: those of its own fields."""
 
 
@@ -116,7 +116,8 @@ def assemble(
         head.append(identified_warning(sizing))
         update["process"] = ProcessInfo(
             kind=p.kind, source="identified", gain=p.gain, gain_se=p.gain_se, time_constant_s=p.time_constant_s,
-            dead_time_s=p.dead_time_s, sample_time_s=draft.process.sample_time_s, description=p.description,
+            dead_time_s=p.dead_time_s, sensor_tau_s=p.sensor_tau_s, actuator_tau_s=p.actuator_tau_s,
+            sample_time_s=draft.process.sample_time_s, description=p.description,
             parameter_ranges={k: v for k, v in sizing.parameter_ranges.items() if k in PROCESS_RANGES},
         )  # fmt: skip
         if not sizing.read:

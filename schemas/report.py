@@ -31,10 +31,16 @@ class ProcessInfo(BaseModel):
     gain_se: float | None = Field(None, description="one standard error of an identified gain")
     time_constant_s: float | None = None
     dead_time_s: float | None = None
+    sensor_tau_s: float | None = Field(None, description="an identified sensor's first-order lag, s (0: none named)")
+    actuator_tau_s: float | None = Field(
+        None,
+        description="an identified actuator's first-order lag, s (0: none named); S trades with it (a longer lag, a "
+        "narrower band), and S's error holds that doubt",
+    )
     parameter_ranges: dict[str, tuple[float, float]] = Field(
         default_factory=dict,
-        description="about 95 % range (low, high) of an identified time_constant_s and dead_time_s, as stiction "
-        "diagnose gives them (from how far it read them on simulated loops)",
+        description="about 95 % range (low, high) of an identified time_constant_s, dead_time_s, sensor_tau_s and "
+        "actuator_tau_s, as stiction diagnose gives them (from how far it read them on simulated loops)",
     )
     sample_time_s: float
     description: str | None = Field(None, description="the identified model in words, where one was identified")

@@ -13,8 +13,8 @@ from stiction.sim.loop import simulate
 from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 
 PROCESS = Process(kind="self_regulating", gain=0.8, gain_se=0.05, time_constant_s=12.0, dead_time_s=2.0,
-                  sensor_tau_s=0.0, actuator_tau_s=0.0, sample_time_s=1.0,
-                  description="first order, T 12 s, dead time 2 s, gain 0.8 % per %")  # fmt: skip
+                  sensor_tau_s=0.0, actuator_tau_s=1.2, sample_time_s=1.0,
+                  description="first order, T 12 s, dead time 2 s, gain 0.8 % per %, actuator lag 1.2 s")  # fmt: skip
 PROCESS_WARNINGS = (NOT_IDENTIFIED, NOT_READ_WARNING)
 
 
@@ -57,7 +57,8 @@ def test_a_sizing_is_assembled_into_the_draft_and_a_newer_one_replaces_it_withou
     assert read.method == "identified" and read.s_pct == 2.0 and read.estimate_t_end_s == 900.0
     # the identified process's numbers with their uncertainty: the gain's standard error, the ranges of its fields
     assert read.process.gain_se == 0.05
-    assert read.process.parameter_ranges == {"time_constant_s": (10.3, 14.0), "dead_time_s": (1.5, 2.6)}
+    assert read.process.parameter_ranges == ranges  # the lags' too: S trades with an actuator's
+    assert (read.process.actuator_tau_s, read.process.sensor_tau_s) == (1.2, 0.0)
     assert not set(PROCESS_WARNINGS) & set(read.warnings) and read.warnings[-1] == "re-read"
     assert read.warnings[0].startswith("process identified from OP and PV")
     nan = float("nan")
