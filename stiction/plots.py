@@ -80,6 +80,7 @@ def plot_loop(out, window, report, details, title: bool = True, dpi: int = 90):
 
 
 def _diagnosis_title(report) -> str:
+    from stiction.ident.models import is_lag_line
     from stiction.ident.report import causes_text
 
     causes = causes_text(report)
@@ -87,6 +88,13 @@ def _diagnosis_title(report) -> str:
         f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} %, J {report.j_pct:.2f} ± {report.j_se_pct:.2f} % of span"
         if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None
         else "no friction read"
+    )
+    # S's error holds the actuator lag's doubt: the line it trades along says how a stroke test's lag narrows it
+    sj += "".join(
+        f" (S about {t.parameters['s_pct_at_no_lag']:.3g} - {t.parameters['s_pct_per_lag_s']:.3g} x the actuator's "
+        "lag in s: a stroke test's lag reads it off)"
+        for t in report.cannot_tell
+        if is_lag_line(t)
     )
     head = (
         f"{report.loop_id}: {causes or 'no cause beyond the canonical loop'}; "

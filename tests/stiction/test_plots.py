@@ -32,7 +32,7 @@ def test_a_diagnosis_title_wraps_its_causes_and_carries_the_reports_warnings_who
         parameters={"sensor_tau_s": 45.4, "gain_ratio": 0.649, "dead_time_s": 2.92, "osc_period_s": 864.0},
         parameter_ranges={"dead_time_s": (2.2, 3.8)},
         base_error=1.71, extended_error=0.661, gain_pct=61.0, s_pct=0.12, s_se_pct=0.54, j_pct=0.09, j_se_pct=0.08,
-        process=SimpleNamespace(description="integrating, dead time 2.92 s"), warnings=[doubt],
+        process=SimpleNamespace(description="integrating, dead time 2.92 s"), warnings=[doubt], cannot_tell=[],
     )  # fmt: skip
     lines = _diagnosis_title(report).splitlines()
     assert all(len(line) <= TITLE_WIDTH for line in lines) and len(lines) >= 4
@@ -40,6 +40,22 @@ def test_a_diagnosis_title_wraps_its_causes_and_carries_the_reports_warnings_who
     assert doubt in " ".join(line.strip() for line in lines)  # read whole, never cut
     joined = " ".join(lines)
     assert "dead_time_s 2.92 (2.2-3.8)" in joined and "(gain_ratio 0.649)" in joined  # a range where one is given
+
+def test_a_diagnosis_title_gives_the_line_along_which_an_actuators_lag_and_the_band_trade():
+    """Where an actuator lag is named, S's error holds its doubt: the title says how a stroke test's lag reads S."""
+    line = SimpleNamespace(named="actuator_lag", alternative="actuator_lag", delta_criterion=None,
+                           parameters={"s_pct_at_no_lag": 41.6, "s_pct_per_lag_s": 4.04}, note="line")  # fmt: skip
+    report = SimpleNamespace(
+        loop_id="LIC2", causes=["actuator_lag"], parameters={"actuator_tau_s": 7.41},
+        parameter_ranges={"actuator_tau_s": (2.73, 20.1)}, base_error=1.37, extended_error=0.369, gain_pct=73.0,
+        s_pct=11.7, s_se_pct=15.16, j_pct=11.1, j_se_pct=3.51, process=SimpleNamespace(description="integrating"),
+        warnings=[], cannot_tell=[line],
+    )  # fmt: skip
+    joined = " ".join(line.strip() for line in _diagnosis_title(report).splitlines())
+    assert "S 11.70 ± 15.16 %" in joined and "S about 41.6 - 4.04 x the actuator's lag in s" in joined
+    report.cannot_tell = []
+    assert "actuator's lag" not in _diagnosis_title(report)
+
 
 def test_the_identified_models_pv_is_drawn_and_the_title_fits(tmp_path):
     import matplotlib.image as mpimg
