@@ -48,7 +48,7 @@ from stiction.ident.models import (
     cause_parameters,
 )
 from stiction.ident.record import Record
-from stiction.ident.ties import deadband_tie, lag_band_tie, lag_s_sd_pct, lag_widened, ties
+from stiction.ident.ties import deadband_tie, lag_band_tie, lag_s_sd_pct, lag_slope, lag_widened, ties
 from stiction.ident.valve_model import Hypothesis
 
 SCREEN_BLIND = ("dead_time", "process_gain")
@@ -185,9 +185,10 @@ def diagnose(record: Record, max_causes: int = MAX_CAUSES, threads: int = 1) -> 
             "quantization", {} if q is None else {"quantum_pct": q}, None, None, None, note=note
         )
     fitted = widened(friction(chosen.fit, record), chosen.spread)
-    lag_sd = lag_s_sd_pct(chosen, record) if np.isfinite(fitted.s_pct) else 0.0
+    slope = lag_slope(chosen, record)  # the lag's line: one slope for the tie and for the doubt it puts on S
+    lag_sd = lag_s_sd_pct(chosen, slope) if np.isfinite(fitted.s_pct) else 0.0
     read = lag_widened(fitted, lag_sd)  # the deadband's trade is with fd as fitted, not along the lag's line
-    played = [] if chosen.hypothesis.linear_valve else deadband_tie(fitted) + lag_band_tie(chosen, record, read)
+    played = [] if chosen.hypothesis.linear_valve else deadband_tie(fitted) + lag_band_tie(chosen, read, slope)
     return Diagnosis(
         base, chosen, candidates, steps, friction(base.fit, record), read, stiction_delta,
         ties=ties(steps, chosen, record) + played, lag_s_sd_pct=lag_sd,

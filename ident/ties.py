@@ -62,8 +62,9 @@ def lag_slope(chosen: Model, record: Record) -> float | None:
     return slope if slope > 0 else None
 
 
-def lag_band_tie(chosen: Model, record: Record, read: Friction) -> list[Tie]:
-    """Where an actuator lag is named with a sticky valve: the line along which the lag and the band trade.
+def lag_band_tie(chosen: Model, read: Friction, slope: float | None) -> list[Tie]:
+    """Where an actuator lag is named with a sticky valve (``slope``, its ``lag_slope``, not None): the line along
+    which the lag and the band trade.
 
     While the stem is stuck OP ramps at some rate r (% a second), and during a ramp a first-order lag is a delay
     of tau.  A model whose lag is tau' < tau reads the drive r (tau - tau') ahead of the true one, and to break the
@@ -77,7 +78,6 @@ def lag_band_tie(chosen: Model, record: Record, read: Friction) -> list[Tie]:
     seeds 31 and 6161, judged after: 0.14-3.1 % off on the 12 without a dead time named beside the lag, 0.6, 16 and
     17 on the 3 with one (a second delay shares the lag's): the note says so there."""
     tau = chosen.hypothesis.actuator_tau_s
-    slope = lag_slope(chosen, record)
     if slope is None or not np.isfinite(read.s_pct):
         return []
     s0 = read.s_pct + slope * tau
@@ -104,10 +104,9 @@ RANGE_SDS = 2.0
 """Standard deviations either side that a named parameter's range (``ident.models.RANGE_LOG``, about 95 %) spans."""
 
 
-def lag_s_sd_pct(chosen: Model, record: Record) -> float:
-    """S's standard deviation from the actuator lag's doubt (``lag_widened``), % of span; 0 where no lag is named
-    with a sticky valve."""
-    slope = lag_slope(chosen, record)
+def lag_s_sd_pct(chosen: Model, slope: float | None) -> float:
+    """S's standard deviation from the actuator lag's doubt (``lag_widened``), % of span, from the line's ``slope``
+    (``lag_slope``); 0 where no lag is named with a sticky valve (``slope`` None)."""
     if slope is None:
         return 0.0
     return slope * chosen.hypothesis.actuator_tau_s * RANGE_LOG["actuator_tau_s"] / RANGE_SDS
