@@ -1,3 +1,5 @@
+import math
+
 import numpy as np
 import pytest
 
@@ -83,3 +85,15 @@ def test_the_compiled_training_loop_follows_the_numpy_reference():
     np.testing.assert_allclose(fast.denoised, slow.denoised, atol=1e-6)
     one = inlpca.fit(op[2:3], pv[2:3])  # window by window: a window's fit does not depend on its batch
     np.testing.assert_array_equal(one._params[0][0], fast._params[0][2])
+
+
+def test_the_training_loops_arithmetic_tanh_sine_and_cosine_follow_the_librarys():
+    from stiction.quantify import inlpca_kernel as k
+
+    # activations of either sign, well into saturation; angles of many turns either way, quadrant edges included
+    for a in np.concatenate([np.linspace(-30, 30, 6001), [0.0, 1e-300, -1e-12, 19.9, 20.0, 20.1]]):
+        assert abs(k._tanh(a) - math.tanh(a)) <= 1e-14, a
+    turns = np.concatenate([np.linspace(-60, 60, 6001), np.arange(-40, 41) * np.pi / 4])
+    for theta in turns:
+        s, c = k._sin_cos(theta)
+        assert abs(s - math.sin(theta)) <= 1e-14 and abs(c - math.cos(theta)) <= 1e-14, theta
