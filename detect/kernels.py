@@ -8,6 +8,8 @@ plain loops in ``tests/detect/reference.py`` are the references they are tested 
 A cache names the module it was compiled in (``stiction.detect.kernels`` since the one installed
 namespace): one made under another name is not loaded, since numba keys it by this file's size and time,
 and this file changed with that move.
+Every kernel here divides without checking for a zero divisor (``error_model="numpy"``: inf or nan, as numpy
+gives; the check was a branch at every division).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def crossings(x, hysteresis):
     """Indices where ``x`` passes from below ``-h`` to above ``+h`` or back, each walked back to
     the first sample of the run of the new sign before it (``detect.oscillation``)."""
@@ -40,7 +42,7 @@ def crossings(x, hysteresis):
     return out[:count]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def regularity(crossings):
     """(r, mean period) from successive zero crossings: each pair of half periods is one period, and
     ``r = mean / (3 sd)`` (inf where every period is equal; 0 and nan under three half periods)."""
@@ -64,7 +66,7 @@ ROUNDING_SD = math.sqrt(2.0 / 12.0)
 the difference of two crossings, carries two roundings of sd 1/sqrt(12) each (``robust_regularity``)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def robust_regularity(crossings):
     """(r, mean period) as ``regularity``, but ``r = median / (3 * spread)`` with the spread the periods' median
     absolute deviation times 1.4826 (their standard deviation where they are normal), at least ``ROUNDING_SD``
@@ -80,7 +82,7 @@ def robust_regularity(crossings):
     return middle / (3.0 * spread), periods.mean()
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _swings(y, crossings, through):
     """Each half cycle's 90th percentile (numpy's linear rule) of ``|y|`` over ``y[a : b + through]`` (``through``
     1: both ends; 0: ``[a, b)``), empty half cycles left out."""
@@ -100,7 +102,7 @@ def _swings(y, crossings, through):
     return swings[:used]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def swing_spread(y, crossings):
     """How much the half cycles' swings differ: the median absolute deviation of each half cycle's 90th percentile
     of ``|y|`` (over ``y[a..b]``, both ends, numpy's linear rule) times 1.4826, over their median; nan without a
@@ -114,7 +116,7 @@ def swing_spread(y, crossings):
     return 1.4826 * np.median(np.abs(swings - middle)) / middle
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def half_cycle_peaks(y, crossings):
     """Median over half cycles ``[a, b)`` of the 90th percentile (numpy's linear rule) of ``|y|``;
     nan without a half cycle."""
@@ -124,7 +126,7 @@ def half_cycle_peaks(y, crossings):
     return np.median(swings)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def shape_errors(y, crossings, apexes, min_samples):
     """``(sum of the half sine's MSE, sum of the best triangle's MSE, half cycles used)`` over the
     half cycles ``y[a..b]`` (both ends) of at least ``min_samples`` samples, each fitted with
@@ -190,7 +192,7 @@ def shape_errors(y, crossings, apexes, min_samples):
     return mse_sine, mse_triangle, used
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _abs_steps(x):
     d = np.empty(x.size - 1)
     for k in range(d.size):
@@ -198,7 +200,7 @@ def _abs_steps(x):
     return d
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def jump_share(y, top_share):
     """Share of ``y``'s total variation spent in its largest ``top_share`` of steps (``detect.features``)."""
     d = _abs_steps(y)
@@ -209,7 +211,7 @@ def jump_share(y, top_share):
     return np.partition(d, d.size - k)[d.size - k :].sum() / total
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def still_share(y, pv, u, edge):
     """Share of spans in which ``y`` (PV's filtered level) stays within twice PV's noise while OP
     ``u`` moves by more than three times its own (``detect.features``)."""
@@ -226,7 +228,7 @@ def still_share(y, pv, u, edge):
     return hits / count if count else 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
     """(share, travel): the share of spans (a ``parts``-th of the window, every quarter span) in
     which OP ``u`` (median-filtered) ramps, a straight line (R^2 >= ``min_r2``) over at least
@@ -286,7 +288,7 @@ def stuck_ramp(y, pv, u, parts, op_share, pv_share, noise_k, min_r2):
     return (hits / count if count else 0.0), travel
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def step_kurtosis(y, rounding_rel):
     """Kurtosis of ``y``'s steps (3.0 for steps that never vary, or vary only by the arithmetic's rounding,
     ``rounding_rel`` of the signal's size: a straight line's steps, as a historian's compression stores a
@@ -308,7 +310,7 @@ def step_kurtosis(y, rounding_rel):
     return q / (v * v) if v > (rounding_rel * size) ** 2 else 3.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def squared_bicoherence(spectra, i1, i2):
     """``|sum X(f1) X(f2) X*(f1+f2)|^2 / (sum |X(f1) X(f2)|^2 sum |X(f1+f2)|^2)`` over the segments
     (rows of ``spectra``) at each frequency pair ``(i1, i2)``; nan where the denominator is 0
@@ -330,7 +332,7 @@ def squared_bicoherence(spectra, i1, i2):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def running_median_rows(x, width):
     """Each row of ``x`` [W, N] median-filtered over ``width`` samples (odd), the edges repeating the first
     and last sample: ``scipy.ndimage.median_filter(x, size=(1, width), mode="nearest")``, which cost 40-50 us

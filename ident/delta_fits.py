@@ -16,6 +16,8 @@ The cost of a candidate is then its steps squared, not the record's length times
 the slip refinement and the pruning of a long record (hundreds of candidates of thousands of samples,
 two thirds of a 3,600-sample diagnosis) fall to a few per cent of it.  Exact up to rounding:
 ``tests/ident/test_delta_fits.py`` holds it to ``ident.fit._fit_sets``, which filters every candidate.
+Every kernel here divides without checking for a zero divisor (``error_model="numpy"``: inf or nan, as numpy
+gives; the check was a branch at every division).
 """
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ def step_correlations(record: Record, d: np.ndarray, z: np.ndarray) -> np.ndarra
     return full[:, first : first + record.n]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _regressors_at(coef, at, breaks, m, k, n, slip_share, snapshot, out):
     """Write into ``out`` [4] one slip set's regressors at sample ``k`` (``ident.kernels.path_regressors``
     at one sample): its piece's coefficients, and in a slip's own interval the mix with the piece before."""
@@ -67,7 +69,7 @@ def _regressors_at(coef, at, breaks, m, k, n, slip_share, snapshot, out):
             out[row] -= share * (coef[piece, row] - coef[piece - 1, row])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _chain_states(d, breaks, landing, m):
     """The chain of ``ident.kernels.piece_coefficients`` before each slip j of one set (and after the last):
     (whether a held slip came, its landing, its direction, the jumps' sum, that sum at the held slip) [M + 1]."""
@@ -81,7 +83,7 @@ def _chain_states(d, breaks, landing, m):
     return held, last_landing, last_d, crossing, at_last
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift, new_landing, dropped, tolerance,
                   max_steps):  # fmt: skip
     """Each candidate's steps against the base slip set (``at``, ``d``, ``breaks``, ``landing`` [M]): candidate c
@@ -166,7 +168,7 @@ def changed_steps(at, d, breaks, landing, n, slip_share, snapshot, index, shift,
     return count, row_of, step_at, size
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def needed_lags(count, at, n):
     """[N] whether some candidate has two steps this many samples apart (its own steps' lags included)."""
     need = np.zeros(n, np.bool_)
@@ -177,7 +179,7 @@ def needed_lags(count, at, n):
     return need
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def lag_products(d, lags):
     """[L, D + 1]: cumulative ``sum_{i < j} d[i] d[i + lag]`` for each of ``lags``."""
     out = np.zeros((lags.size, d.size + 1))
@@ -191,7 +193,7 @@ def lag_products(d, lags):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _pair(products, lag_index, d_size, horizon, skip, n_fit, a, b):
     """``<D_a, D_b>`` over the compared samples, a <= b (raw samples of two steps)."""
     lag = b - a
@@ -203,7 +205,7 @@ def _pair(products, lag_index, d_size, horizon, skip, n_fit, a, b):
     return row[hi + 1] - row[lo]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def delta_fits(gram0, corr, n_basis, count, row_of, at, size, products, lag_index, d_size, horizon, skip, n_fit,
                rows, gain_free, nominal_gain):  # fmt: skip
     """(rss [C], solved [C, len(rows)]) as ``ident.kernels.projected_fits`` gives them, from the base's Gram

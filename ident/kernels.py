@@ -15,6 +15,8 @@ tested against.
 A cache names the module it was compiled in (``stiction.ident.kernels`` since the one installed
 namespace): one made under another name is not loaded, since numba keys it by this file's size and time,
 and this file changed with that move.
+Every kernel here divides without checking for a zero divisor (``error_model="numpy"``: inf or nan, as numpy
+gives; the check was a branch at every division).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _break(start, end, mean, moves, decay, k, level, d, band):
     """(share of interval k's time before the break, drive at the break) for a stem at ``level`` slipping in
     ``d``; the drive relaxes by ``decay`` an interval (``ident.valve_model.time_share``)."""
@@ -44,7 +46,7 @@ def _break(start, end, mean, moves, decay, k, level, d, band):
     return t, s + frac * (e - s)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _wider(x, cap):
     """``x`` [C, M] copied into zeros of [C, cap]."""
     out = np.zeros((x.shape[0], cap), x.dtype)
@@ -52,7 +54,7 @@ def _wider(x, cap):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
     """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events."""
     n_cand, n, n_read = band.size, end.size, read_at.size
@@ -127,7 +129,7 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
     return counts, at, dirs, brk, land, forced
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def segment_row(f, penalty):
     """Ends of the optimal pieces of ``f`` under ``SSE + penalty * pieces`` (PELT, Killick et al. 2012).
 
@@ -174,7 +176,7 @@ def segment_row(f, penalty):
     return ends[:m][::-1].copy()
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def path_pieces(u, bounds, noise_sd, min_jump_sd):
     """(starts, levels) of the stem's pieces from a segmentation of ``u`` (``bounds``: 0, then each
     piece's end): a piece of one sample between two levels joins the nearer one, and a piece whose level
@@ -217,7 +219,7 @@ def path_pieces(u, bounds, noise_sd, min_jump_sd):
     return starts[:p].copy(), levels[:p].copy()
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _dot(a, b):
     s = 0.0
     for k in range(a.size):
@@ -225,14 +227,14 @@ def _dot(a, b):
     return s
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _axpy(y, d, x):
     """``y -= d * x`` in place."""
     for k in range(y.size):
         y[k] -= d * x[k]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def pi_fit(op, e, ts_s):
     """``(Kc, Ti, explained)`` of the least-squares fit ``OP = a + b t + Kc e + (Kc Ts/Ti) sum e`` of one
     window (``ident.controller``): modified Gram-Schmidt, twice, on the four columns scaled to unit
@@ -297,7 +299,7 @@ three quarters of the time moving them: 0.57 s against 0.15 s a call (``stiction
 3,600-sample level loop 35 -> 27 s)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def iir_rows(b, a, x, horizon, skip):
     """Each row of ``x`` [R, N] through ``b(q^-1) / a(q^-1)`` from rest:
     ``a0 y[k] = sum b_i x[k-i] - sum_{i>0} a_i y[k-i]``.  Time runs in the outer loop and a block of
@@ -342,7 +344,7 @@ def iir_rows(b, a, x, horizon, skip):
     return out
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def chain_step(held, last_landing, last_d, crossing, at_last, d, brk, landing):
     """The chain of a slip set's pieces after one more slip: (whether a slip at a held drive came, its landing,
     its direction, the sum of the jumps at a moving drive, that sum at the held slip)."""
@@ -351,7 +353,7 @@ def chain_step(held, last_landing, last_d, crossing, at_last, d, brk, landing):
     return held, last_landing, last_d, crossing + d, at_last
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def write_piece(coef, j, held, last_landing, last_d, crossing, at_last):
     """``coef[j]``, the coefficients of ``ident.valve_model.ROWS`` on a piece, from the chain before it: the last
     held slip's landing less its stop, plus the jumps since (or the level before the first slip)."""
@@ -362,7 +364,7 @@ def write_piece(coef, j, held, last_landing, last_d, crossing, at_last):
     coef[j, 2] = crossing - at_last
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def piece_coefficients(at, d, breaks, landing, m, coef):
     """Write into ``coef`` [M + 1, 4] the coefficients of ``ident.valve_model.ROWS`` on each piece of one slip
     set (rows ``at``, ``d``, ``breaks``, ``landing`` [M], the first ``m`` real): piece 0 before the first slip,
@@ -374,7 +376,7 @@ def piece_coefficients(at, d, breaks, landing, m, coef):
         write_piece(coef, j + 1, h, hl, hd, cr, al)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
     """[V, 4, n] regressors of each slip set (rows ``at``, ``d``, ``breaks``, ``landing`` [V, M], the
     first ``counts[v]`` real, ``at`` increasing), as ``ident.valve_model.path_regressors_many`` says:
@@ -404,7 +406,7 @@ def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def projected_fits(x, xq, q_t, yp, rows, gain_free, nominal_gain):
     """Every candidate's least squares of ``ident.fit._batch_fit`` without writing its projected batch:
     ``x`` [C, m, n] a candidate's regressors compared (not projected), the first the one a fixed gain moves

@@ -4,7 +4,10 @@ and the mean flow of each piece of a segmentation.
 Run in numpy they were a Python loop over a window's samples (the recursion, vectorised over the
 windows of a batch: 0.7 ms a window in the agent's batches of a few) and one ``np.mean`` call a piece
 (hundreds a window: 1.2 ms).  ``quantify.physical`` keeps their definitions in its docstrings;
-tests/quantify/test_physical.py holds these to plain numpy transcriptions."""
+tests/quantify/test_physical.py holds these to plain numpy transcriptions.
+Every kernel here divides without checking for a zero divisor (``error_model="numpy"``: inf or nan, as numpy
+gives; the check was a branch at every division).
+"""
 
 from __future__ import annotations
 
@@ -12,7 +15,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def stem_from_flow(flow, c):
     """MV [W, N+1] from the mean flow of each interval [W, N]: ``mv[k+1] = (flow[k] - c mv[k]) / (1 - c)``,
     ``mv[0] = flow[0]``."""
@@ -25,7 +28,7 @@ def stem_from_flow(flow, c):
     return mv
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def piece_means(f, ends):
     """Mean of ``f`` [N] over each piece ``[ends[i-1], ends[i])`` (the first from 0)."""
     out = np.empty(ends.size)
@@ -39,7 +42,7 @@ def piece_means(f, ends):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def median(x):
     """``np.median`` of a 1-d array (nan if it holds one): the mean of the two middle values of an even
     count.  The reading takes four medians a window's slips, where numpy's call cost 80 us."""
