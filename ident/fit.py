@@ -120,7 +120,9 @@ def _batch_fit(
     gain moves to the target's side (the jump's row is read only at a moving drive)."""
     rows = solved_rows(hyp)
     used = sorted(set(rows) | {0})
-    x = record.compared_response(tf, regs[:, used]).reshape(regs.shape[0], len(used), -1)
+    # take, not regs[:, used]: numpy's fancy index along the second axis comes back transposed, and the filter's
+    # reshape then copied it a second time (3 % of a diagnosis)
+    x = record.compared_response(tf, np.take(regs, used, axis=1)).reshape(regs.shape[0], len(used), -1)
     y = project_out(record.target[None, :], q)[0]
     q = np.ascontiguousarray(q)
     xq = (x.reshape(-1, x.shape[-1]) @ q).reshape(x.shape[0], len(used), -1)
