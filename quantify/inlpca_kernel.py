@@ -15,9 +15,9 @@ arithmetic.  Three things kept it scalar, each found by reading the compiled cod
 zero divisor (``error_model="numpy"`` drops the check: a zero divisor gives inf, as in numpy), the library's
 ``exp``, ``sin`` and ``cos`` (a call a sample: ``_exp_bounded`` and ``_sin_cos`` are polynomials, within
 1e-14 of them where the training reads them) and sums in strict order (``FAST``: the compiler may reorder a
-sum and fuse a multiply-add, never assume a value finite).  The training loop went from 1.06 to 0.23 ms a
-window (50 windows of random canonical loops, AMD EPYC family 26 model 2), its weights within 1e-8 of the
-strict loop's.
+sum and fuse a multiply-add, never assume a value finite).  The training loop went from 1.04-1.08 to 0.27 ms
+a window (50 windows of random canonical loops, best of seven, AMD EPYC family 26 model 2), its weights within
+1e-8 of the strict loop's.
 A cache names the module it was compiled in (``stiction.quantify.inlpca_kernel`` since the one installed
 namespace): one made under another name is not loaded, since numba keys it by this file's size and time,
 and this file changed with that move.
