@@ -23,7 +23,7 @@ from stiction.detect import features
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide
 from stiction.ident import controller
 from stiction.ident.checks import blocking, data_checks_rows
-from stiction.quantify import inlpca, policy
+from stiction.quantify import inlpca, physical, policy
 from stiction.quantify.analysis import analyse_where
 from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
 from stiction.quantify.predictor import DEFAULT_MODELS_DIR, ModelError, load_models, model_version
@@ -255,9 +255,10 @@ def _blocks(shown: dict, level: bool) -> dict:
 
 
 def warm_up() -> None:
-    """Compile (or load from their caches) the compiled parts, INLPCA, evidence and the PI fit, now
-    rather than in the first report's time: a first compile on a machine takes seconds."""
+    """Compile (or load from their caches) the compiled parts, INLPCA, evidence, the physical reading and the PI
+    fit, now rather than in the first report's time: a first compile on a machine takes seconds."""
     inlpca.warm_up()
     features.warm_up()
+    physical.warm_up()
     t = np.arange(64, dtype=float)
     controller.fit_pi(np.sin(t / 5)[None], np.cos(t / 5)[None])

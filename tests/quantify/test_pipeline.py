@@ -493,3 +493,21 @@ def test_a_sticky_window_without_a_period_says_that_is_why_it_has_no_numbers(qua
     (rep,) = quantifier.quantify([Window("drift", r.op[0], r.pv[0], process="level")])
     assert rep.verdict == "stiction" and rep.fs_pct is None and rep.method == "none"
     assert any(w.startswith("no estimate: OP has no period") for w in rep.warnings), rep.warnings
+
+
+def test_the_warm_up_leaves_no_kernel_of_a_reading_to_compile_in_the_first_report():
+    """In a fresh process (the agent's start), ``warm_up`` readies the physical reading's kernels too, both ways
+    (sample by sample and segmented): before, the first sticky level loops' reports compiled them (0.8 s of p99)."""
+    import subprocess
+    import sys
+
+    code = (
+        "from stiction.quantify import pipeline, physical_kernel\n"
+        "from stiction.ident import kernels\n"
+        "pipeline.warm_up()\n"
+        "p = physical_kernel\n"
+        "ks = [p.stem_from_flow, p.piece_means, p.median, kernels.segment_row]\n"
+        "print(*[k.__name__ for k in ks if not k.signatures])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=600)
+    assert out.stdout.strip() == ""
