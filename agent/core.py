@@ -63,7 +63,7 @@ class CoreSettings:
         return self.window_samples // 10 if self.max_fill_samples is None else self.max_fill_samples
 
 
-@dataclass
+@dataclass(slots=True)
 class _Loop:
     window: RollingWindow
     process: str | None

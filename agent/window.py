@@ -34,6 +34,8 @@ class RollingWindow:
     not a ring.
     """
 
+    __slots__ = ("size", "ts_s", "_op", "_pv", "count", "next_seq", "t_end_s", "_sp", "_sp_const", "_sp_missing_until")
+
     def __init__(self, size: int, ts_s: float):
         self.size = size
         self.ts_s = ts_s
