@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+import zlib
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,9 @@ INGEST_PER_PASS = 1000
 thousands of messages is reported without waiting for the whole burst."""
 HISTORY_TIMEOUT_S = 30.0
 """How long the publishers have to answer for a shard's recent samples."""
+LATEST_LEVEL = 1
+"""zlib's level for the latest reports an agent holds: a sticky loop's report is 1.4 kB of JSON and 0.7 kB
+compressed, 14 MB less for 20,000 loops, for 20-40 us a report (1 % of a core at 300 reports a second)."""
 BACKLOG_MESSAGES = 20000
 """Past this many queued messages the agent is behind: it ingests them all first, so the queue
 stays bounded and reports are late rather than samples stranded."""
@@ -105,6 +109,7 @@ class AgentService:
         self.quantifier = quantifier or Quantifier(settings.models_dir)
         self.core = AgentCore(settings.agent_id, settings.core)
         self.latest: dict[str, bytes] = {}
+        """Each loop's latest report for ``get``, compressed (``LATEST_LEVEL``)."""
         self.drafts: dict[str, StictionReport] = {}
         """The latest draft of each sticky loop of unknown process: its report is assembled again
         with a sizing that comes back (``quantify.assembly``)."""
@@ -189,7 +194,9 @@ class AgentService:
             payload = self.latest.get(lid)
             if payload is not None and self.core.owns(lid):
                 query.reply(
-                    keys.report(self.settings.prefix, lid), payload, encoding=self._zenoh.Encoding.APPLICATION_JSON
+                    keys.report(self.settings.prefix, lid),
+                    zlib.decompress(payload),
+                    encoding=self._zenoh.Encoding.APPLICATION_JSON,
                 )
 
     # lifecycle ---------------------------------------------------------------------------------
@@ -333,7 +340,7 @@ class AgentService:
                 else:
                     self.drafts.pop(w.loop_id, None)
             payload = report.model_dump_json().encode()
-            self.latest[w.loop_id] = payload
+            self.latest[w.loop_id] = zlib.compress(payload, LATEST_LEVEL)
             self.session.put(keys.report(self.settings.prefix, w.loop_id), payload, **put_kw)
             arrivals.append(arrived)
             if self.sink is not None:
@@ -385,7 +392,8 @@ class AgentService:
             draft = self.drafts.get(loop_id)
             if draft is None or not self.core.owns(loop_id):
                 continue
-            self.latest[loop_id] = self.sizing.apply(draft, self.settings.agent_id).model_dump_json().encode()
+            report = self.sizing.apply(draft, self.settings.agent_id)
+            self.latest[loop_id] = zlib.compress(report.model_dump_json().encode(), LATEST_LEVEL)
         while self._size_queue and self.sizing.has_room():
             loop_id = next(iter(self._size_queue))
             del self._size_queue[loop_id]
