@@ -109,6 +109,8 @@ def warm_up() -> None:
     """Compile (or load from their cache) the evidence's kernels now, not in the first report's time."""
     t = np.arange(200, dtype=float)
     evidence(np.sin(t / 7), np.sign(np.sin(t / 7)), 1.0)
+    smooth, crossings = oscillation.half_cycles(np.sin(t / 7), 1.0)  # a cycle of outlying periods reads it
+    kernels.swing_spread(np.ascontiguousarray(smooth, dtype=float), crossings)
 
 
 def evidence(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sp: np.ndarray | None = None) -> Evidence:

@@ -497,19 +497,46 @@ def test_a_sticky_window_without_a_period_says_that_is_why_it_has_no_numbers(qua
     assert any(w.startswith("no estimate: OP has no period") for w in rep.warnings), rep.warnings
 
 
-def test_the_warm_up_leaves_no_kernel_of_a_reading_to_compile_in_the_first_report():
-    """In a fresh process (the agent's start), ``warm_up`` readies the physical reading's kernels too, both ways
-    (sample by sample and segmented): before, the first sticky level loops' reports compiled them (0.8 s of p99)."""
+_FIRST_REPORTS = """
+import sys
+import numpy as np
+from numba.core.registry import CPUDispatcher
+from stiction.ident import kernels
+from stiction.quantify import physical_kernel as p, pipeline
+from stiction.quantify.window import Window
+from stiction.sim.publisher import loop_specs
+from stiction.sim.stream import LoopStream
+
+stream = LoopStream(list(loop_specs(12, seed=7).values()))
+stream.next(1000)
+c = stream.next(1000)
+rng = np.random.default_rng(1)
+windows = [Window(f"L{i}", c.op[i].astype(np.float32), c.pv[i].astype(np.float32), 1.0, 1000.0, process,
+                  full_samples=1000) for i in range(12) for process in ("level", None)]
+windows.append(Window("noise", rng.normal(50, 1, 1000), rng.normal(50, 1, 1000)))
+quantifier = pipeline.Quantifier()
+pipeline.warm_up()
+print(*[k.__name__ for k in (p.stem_from_flow, p.piece_means, p.median, kernels.segment_row) if not k.signatures])
+
+def signatures():
+    return {f"{name}.{k}": len(v.signatures) for name, m in list(sys.modules.items()) if name.startswith("stiction")
+            for k, v in vars(m).items() if isinstance(v, CPUDispatcher)}
+
+before = signatures()
+quantifier.results(windows)
+print(*sorted(k for k, n in signatures().items() if n != before.get(k)))
+"""
+
+
+def test_the_warm_up_leaves_no_kernel_to_compile_in_the_first_reports():
+    """In a fresh process (the agent's start), ``warm_up`` readies every kernel the first reports run: the
+    physical reading's both ways (sample by sample and segmented; before 2026-11-27 the first sticky level loops'
+    reports compiled them, 0.8 s of p99), and the oscillation's swing spread (a cycle with outlying periods: its
+    first compile or load touched 10 MB of numba's compiler again after the agent had released it)."""
     import subprocess
     import sys
 
-    code = (
-        "from stiction.quantify import pipeline, physical_kernel\n"
-        "from stiction.ident import kernels\n"
-        "pipeline.warm_up()\n"
-        "p = physical_kernel\n"
-        "ks = [p.stem_from_flow, p.piece_means, p.median, kernels.segment_row]\n"
-        "print(*[k.__name__ for k in ks if not k.signatures])\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=600)
-    assert out.stdout.strip() == ""
+    out = subprocess.run([sys.executable, "-c", _FIRST_REPORTS], capture_output=True, text=True, check=True,
+                         timeout=600)  # fmt: skip
+    unready, compiled = out.stdout.split("\n")[:2]
+    assert unready.strip() == "" and compiled.strip() == "", out.stdout
