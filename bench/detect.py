@@ -146,6 +146,7 @@ def bench_detect(
     from stiction.sim.plant_families import FAMILIES
 
     t0 = time.perf_counter()
+    exports = labelled_exports(measured)  # first: a folder without labelled exports is named before a minute's work
     sim = training.simulated_set(train_per_class, SIM_SEED)
     out: dict = {"bands": bands, "samples": samples, "families": {}, "measured": {}}
 
@@ -195,8 +196,7 @@ def bench_detect(
     out["two_parameter"] = _judged(_two_parameter_set(n_per_class, seed, samples), simulation_only)
 
     measured_rows = [
-        (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv))
-        for tag, sticky, e in labelled_exports(measured)
+        (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv)) for tag, sticky, e in exports
     ]
     if measured_rows:
         tags = [r[0] for r in measured_rows]

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from stiction.schemas.errors import InputError
+
 
 def _diagnose_file(path: str) -> tuple[dict, float]:
     """The diagnosis report of one export, and the CPU seconds it took (reading the file included)."""
@@ -47,10 +49,13 @@ def labelled_exports(paths: list[Path]) -> list[tuple[str, bool, object]]:
     for p in paths:
         known.update(labels(p if p.is_dir() else p.parent))
     out = []
-    for f in expand_paths(paths):
-        meta = known.get(f.stem)
-        if meta:
-            out.append((meta["tag"], meta["label"] == "stiction", read_export(f)))
+    for p in paths:
+        found = [(known[f.stem], f) for f in expand_paths([p]) if f.stem in known]
+        if not found:  # else a folder one level too high was judged on nothing, and said nothing
+            inside = [d.name for d in sorted(p.iterdir()) if d.is_dir()] if p.is_dir() else []
+            hint = f" (its folders: {', '.join(inside)})" if inside else ""
+            raise InputError(f"{p}: no labelled export here (CSV files named in a loops.json beside them){hint}")
+        out += [(meta["tag"], meta["label"] == "stiction", read_export(f)) for meta, f in found]
     return out
 
 

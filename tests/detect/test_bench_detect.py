@@ -34,3 +34,23 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert "another simulator" in out
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
     assert "effect on PV over the noise" in out and "the label before" in out
+
+
+def test_a_folder_without_labelled_exports_is_named_not_judged_on_nothing(tmp_path):
+    """Given the folder above the exports (the shared data's layout: loops.json beside csv/), the bench said
+    nothing of the measured windows and printed no error."""
+    import json
+
+    import pytest
+
+    from stiction.bench.measured import labelled_exports
+    from stiction.schemas.errors import InputError
+
+    (tmp_path / "csv").mkdir()
+    rows = "".join(f"{k},{50 + (k % 7)},{50 - (k % 5)}\n" for k in range(300))
+    (tmp_path / "csv" / "a.csv").write_text("t,op,pv\n" + rows)
+    (tmp_path / "loops.json").write_text(json.dumps([{"csv": "csv/a.csv", "tag": "T1", "label": "stiction"}]))
+    with pytest.raises(InputError, match=r"no labelled export here .*its folders: csv"):
+        labelled_exports([tmp_path])
+    [(tag, sticky, export)] = labelled_exports([tmp_path / "csv"])
+    assert tag == "T1" and sticky and len(export.op) == 300
