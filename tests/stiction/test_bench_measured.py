@@ -19,3 +19,11 @@ def test_each_loop_carries_its_cpu_seconds_and_the_summary_names_the_slowest(cap
     assert s["slowest"] == files[seconds.index(max(seconds))].name
     print_summary(fig)
     assert f"largest {max(seconds):.1f} ({s['slowest']})" in capsys.readouterr().out
+
+
+def test_a_folder_without_exports_is_named_not_benched_as_zero_loops(tmp_path):
+    from stiction.schemas.errors import InputError
+
+    (tmp_path / "csv").mkdir()
+    with pytest.raises(InputError, match="no CSV export here"):
+        bench_measured([tmp_path], workers=1)
