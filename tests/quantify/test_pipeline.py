@@ -504,6 +504,7 @@ from numba.core.registry import CPUDispatcher
 from stiction.ident import kernels
 from stiction.quantify import physical_kernel as p, pipeline
 from stiction.quantify.window import Window
+from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
 from stiction.sim.publisher import loop_specs
 from stiction.sim.stream import LoopStream
 
@@ -514,6 +515,9 @@ rng = np.random.default_rng(1)
 windows = [Window(f"L{i}", c.op[i].astype(np.float32), c.pv[i].astype(np.float32), 1.0, 1000.0, process,
                   full_samples=1000) for i in range(12) for process in ("level", None)]
 windows.append(Window("noise", rng.normal(50, 1, 1000), rng.normal(50, 1, 1000)))
+for i, (op, pv, sp, _) in enumerate(simulate_plant(plant_loops(2, 11), 0.5, 1000)):  # every class, setpoints
+    if stable(op, pv):
+        windows.append(Window(f"P{i}", op.astype(np.float32), pv.astype(np.float32), 1.0, 1000.0, sp=sp))
 quantifier = pipeline.Quantifier()
 pipeline.warm_up()
 print(*[k.__name__ for k in (p.stem_from_flow, p.piece_means, p.median, kernels.segment_row) if not k.signatures])
@@ -529,7 +533,8 @@ print(*sorted(k for k, n in signatures().items() if n != before.get(k)))
 
 
 def test_the_warm_up_leaves_no_kernel_to_compile_in_the_first_reports():
-    """In a fresh process (the agent's start), ``warm_up`` readies every kernel the first reports run: the
+    """In a fresh process (the agent's start), ``warm_up`` readies every kernel the first reports run (canonical
+    windows declared and not, noise, plant-like loops of every class with their setpoints): the
     physical reading's both ways (sample by sample and segmented; before 2026-11-27 the first sticky level loops'
     reports compiled them, 0.8 s of p99), and the oscillation's swing spread (a cycle with outlying periods: its
     first compile or load touched 10 MB of numba's compiler again after the agent had released it)."""
