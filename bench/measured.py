@@ -60,8 +60,9 @@ def labelled_exports(paths: list[Path]) -> list[tuple[str, bool, object]]:
 
 
 def bench_measured(folders: list[Path], workers: int = 2) -> dict:
-    files = sorted(str(p) for f in folders for p in (sorted(f.glob("*.csv")) if f.is_dir() else [f]))
-    empty = [str(f) for f in folders if f.is_dir() and not any(f.glob("*.csv"))]
+    listed = {f: sorted(f.glob("*.csv")) if f.is_dir() else [f] for f in folders}
+    files = sorted(str(p) for found in listed.values() for p in found)
+    empty = [str(f) for f, found in listed.items() if not found]
     if empty:
         raise InputError(f"{', '.join(empty)}: no CSV export here (the exports may be in a folder inside)")
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):

@@ -29,17 +29,27 @@ _SETTINGS = (("MALLOC_MMAP_THRESHOLD_", -3, MMAP_THRESHOLD_BYTES), ("MALLOC_TRIM
 
 def hold_freed_memory() -> bool:
     """Apply the settings to this process and its future children; False where the C library is not glibc."""
-    if not sys.platform.startswith("linux"):
+    libc = _glibc()
+    if libc is None:  # musl and others: their allocator, their defaults
         return False
-    try:
-        mallopt = ctypes.CDLL("libc.so.6").mallopt
-    except (OSError, AttributeError):  # musl and others: their allocator, their defaults
-        return False
+    mallopt = libc.mallopt
     for name, param, default in _SETTINGS:
         value = os.environ.setdefault(name, str(default))
         with contextlib.suppress(ValueError):  # the user's own value, unreadable: glibc ignored it at start, we too
             mallopt(param, int(value))
     return True
+
+
+def _glibc():
+    """The C library where it is glibc on Linux (``mallopt`` and ``madvise`` there); None elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt, libc.madvise  # noqa: B018 - musl names its library otherwise; one without them is not glibc
+    except (OSError, AttributeError):
+        return None
+    return libc
 
 
 MADV_DONTNEED = 4
@@ -53,10 +63,10 @@ def release_library_pages(name: str = COMPILER_LIBRARY) -> int:
     clean copies of the file: its code and read-only data, never a page this process wrote (relocated data, its
     own variables).  Read again, a page faults back in from the file, identical.  Bytes released; 0 where
     ``/proc/self/smaps`` or ``madvise`` is not there."""
-    if not sys.platform.startswith("linux"):
+    libc = _glibc()
+    if libc is None:
         return 0
     try:
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
         text = Path("/proc/self/smaps").read_text()
     except OSError:
         return 0
