@@ -21,7 +21,11 @@ from stiction.schemas.report import Estimate, ProcessInfo, StictionReport
 from stiction.sim.process import LOOPS
 from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
 
-NOT_IDENTIFIED = "process neither declared nor identified: the physical reading of the slips (level loop) is not used"
+NOT_IDENTIFIED = (
+    "process neither declared nor identified: the physical reading of the slips (which needs the thesis's level "
+    "loop) is not used"
+)
+"""Said of a loop called sticky only: a loop with no valve fault has no friction to read, whatever its process."""
 NOT_READ_WARNING = (
     "S and J not read: the learned models know only the thesis's level loop and this loop's process is "
     "neither declared nor identified (their readings stay in the 'learned' and 'thesis' blocks); "
@@ -105,10 +109,9 @@ def assemble(
     unknown = draft.process.source == "none"
     sized = sizing is not None and needs_sizing(draft)
     identified = sized and sizing.process is not None
-    if unknown and not identified:
+    if unknown and not identified and draft.verdict == "stiction":
         head.append(NOT_IDENTIFIED)
-        if draft.verdict == "stiction":
-            tail.append(NOT_READ_WARNING)
+        tail.append(NOT_READ_WARNING)
     if sized and not identified:  # the identification itself failed: say why
         tail.append(NOT_READ_PREFIX + sizing.why)
     if identified:

@@ -96,7 +96,8 @@ def test_a_loop_with_another_controller_is_not_taken_for_the_thesis_loop(quantif
     assert len(windows) >= 4 and any(w.loop_id.startswith("stiction") for w in windows)
     for rep in quantifier.quantify(windows):
         assert rep.process.source == "none" and rep.method != "physical" and rep.physical is None
-        assert any("neither declared nor identified" in w for w in rep.warnings)
+        # said where it matters, beside a stiction verdict whose numbers it withholds; not on a loop without a fault
+        assert any("neither declared nor identified" in w for w in rep.warnings) == (rep.verdict == "stiction")
 
 
 def test_batched_equals_one_at_a_time(quantifier, cases):
