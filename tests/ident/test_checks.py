@@ -96,3 +96,30 @@ def test_a_historians_compressed_archive_is_named_with_its_factor_and_the_raw_re
     assert compression_factor(pv) < 1.1 and compression_factor(np.round(pv, 3)) < 1.1
     assert compression_factor(np.repeat(pv[::10], 10)) < 1.1  # held, not interpolated: held_op's and frozen's
     assert not [c for c in data_checks(op, np.round(pv, 6)) if c.name.startswith("compressed")]
+
+
+def test_a_record_whose_op_is_a_compressed_archive_gets_no_verdict_and_its_raw_record_does():
+    """OP in straight lines is an archive (no controller writes it so): the verdict, which reads such records little
+    better than chance, is not given (bad_data, naming the archive); the same loop raw, and a record whose PV alone
+    runs straight (a noise-free simulation's integrating PV), are read."""
+    from stiction.ident.checks import COMPRESSED_FACTOR, compression_factor
+    from stiction.quantify.pipeline import Quantifier, Window
+    from stiction.sim.plant_families import compress
+    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
+
+    loops = [loop for loop in plant_loops(3, 7) if loop.cause in ("stiction", "external_oscillation")]
+    made = [(op, pv) for op, pv, _, _ in simulate_plant(loops, 0.5, 1000) if stable(op, pv)]
+    assert len(made) >= 4
+    windows = []
+    for i, (op, pv) in enumerate(made):
+        stored_op, stored_pv = compress(op, 0.2 * float(np.ptp(op))), compress(pv, 0.2 * float(np.ptp(pv)))
+        assert compression_factor(stored_op) >= COMPRESSED_FACTOR > compression_factor(op)
+        windows += [Window(f"raw-{i}", op, pv), Window(f"archive-{i}", stored_op, stored_pv),
+                    Window(f"pv-only-{i}", op, stored_pv)]  # fmt: skip
+    reports = {r.loop_id: r for r in Quantifier().quantify(windows)}
+    for i in range(len(made)):
+        archive = reports[f"archive-{i}"]
+        assert archive.verdict == "bad_data" and archive.stiction_probability is None
+        assert "compressed_op" in archive.checks and any("compressed archive" in w for w in archive.warnings)
+        for kind in ("raw", "pv-only"):
+            assert reports[f"{kind}-{i}"].verdict != "bad_data" and "compressed_op" not in reports[f"{kind}-{i}"].checks
