@@ -148,6 +148,17 @@ PERCENT_SLACK = 5.0
 """How far outside 0-100 a signal in percent of span may read (a transmitter's over- and under-range)."""
 
 
+EPOCH_FROM_S = 1e8
+"""A time from this many seconds on is a calendar time (seconds since 1970: 1973 onwards), said as one."""
+
+
+def _stamp(t_s: float) -> str:
+    """A time as the file gave it: a calendar time in ISO form (UTC), seconds as a number."""
+    if abs(t_s) >= EPOCH_FROM_S:
+        return str(np.datetime64(int(round(t_s * 1000)), "ms")).replace(".000", "")
+    return f"{t_s:g}"
+
+
 def check_span(span: tuple[float, float] | None, what: str = "--pv-span") -> tuple[float, float] | None:
     """``span`` as (low, high) of an engineering range, or an error naming what is wrong with it."""
     if span is None:
@@ -330,8 +341,8 @@ class _Reader:
             k = int(bad[0])
             kind = "repeats" if step[k] == 0 else "goes back from"
             raise InputError(
-                f"{self.name}: row {offset + k + 1}: time {joined[k + 1]:g} {kind} the row before ({joined[k]:g}); "
-                "samples must be in time order without duplicates"
+                f"{self.name}: row {offset + k + 1}: time {_stamp(joined[k + 1])} {kind} the row before "
+                f"({_stamp(joined[k])}); samples must be in time order without duplicates"
             )
         if self.ts is not None:
             gaps = np.flatnonzero(np.abs(step - self.ts) > GAP_TOLERANCE * self.ts)

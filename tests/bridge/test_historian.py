@@ -46,6 +46,9 @@ def test_iso_timestamps(tmp_path):
         ("t,op,pv\n0,1,2\n1,1\n", "row 3 has 2 fields"),
         ("t,op,pv\n" + _rows(5) + "3,1,1\n", "row 7: time 3 goes back"),
         ("t,op,pv\n0,1,1\n1,1,1\n1,1,1\n2,1,1\n", "row 4: time 1 repeats"),
+        # a calendar time is said as the file wrote it, not as seconds since 1970
+        ("timestamp,op,pv\n" + "".join(f"2026-01-01T00:00:{k:02d},1,1\n" for k in (0, 1, 1, 2)),
+         r"row 4: time 2026-01-01T00:00:01 repeats the row before \(2026-01-01T00:00:01\)"),
         ("t,op,pv\n" + _rows(12) + "30,1,1\n", "row 14: time step 19 s"),
     ],
 )
