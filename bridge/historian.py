@@ -5,7 +5,8 @@ Required: ``op`` and ``pv``; optional: ``t`` (seconds or ISO 8601 times), ``sp``
 and decimal mark are read from the content (``bridge.dialect``).  Files are read in blocks and
 only the window asked for is kept (``last`` samples, or one window every ``every`` samples), so
 memory follows the window, not the file.  Every problem is an ``InputError`` naming the file,
-the row (1-based, counting the header as row 1) or the column, and what was expected.
+the row (1-based, counting the header as row 1) or the column, and what was expected; but a gap or two in the
+time column (``UNEVEN_SHARE``) is a warning of ``read_export``, which keeps the samples after the last one.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import csv
 import itertools
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,9 @@ EXPORT_SUFFIXES = (".csv", ".txt", ".tsv", ".parquet", ".pq")
 MAX_BYTES = 4 * 1024**3
 """Larger files are refused unread (they are read in blocks, so this bounds time, not memory)."""
 BLOCK_ROWS = 65536
+UNEVEN_SHARE = 0.01
+"""A file with time steps off its sample time at more than this share of its samples is unevenly sampled, not a record
+with a gap or two, and is refused; with fewer, ``read_export`` reads the stretch after the last gap."""
 
 
 @dataclass(frozen=True)
@@ -76,13 +80,16 @@ def read_export(
     ``op``/``pv``/``t``/``sp``/``mv``/``mode`` to the file's own names; ``pv_span``: PV's (and SP's)
     engineering range (``pv_to_percent``), where the file does not record them in percent of span."""
     reader = _Reader(path, ts_s, columns, pv_span)
+    reader.gaps_allowed = True
     tail = _Tail(last)
     for block in reader.blocks():
         tail.add(block)
     window = tail.window()
     if window is None:
         raise InputError(f"{reader.name}: header only, no samples")
-    return reader.export(window, tail.seen)
+    window, gap_note = reader.after_gaps(window, tail.seen)
+    export = reader.export(window, tail.seen)
+    return export if gap_note is None else replace(export, warnings=(gap_note, *export.warnings))
 
 
 def read_windows(
@@ -209,6 +216,9 @@ class _Reader:
         self.last_t: float | None = None
         self.relabelled = 0
         self.mode_values: set[float] = set()
+        self.gaps_allowed = False
+        """``read_export`` reads past gaps (the stretch after the last one is kept); windows every N samples do not."""
+        self.gaps: list[tuple[int, int, float]] = []  # (file row, index of the sample after it, the step [s])
 
     # -- blocks ---------------------------------------------------------------------------------
 
@@ -346,13 +356,34 @@ class _Reader:
             )
         if self.ts is not None:
             gaps = np.flatnonzero(np.abs(step - self.ts) > GAP_TOLERANCE * self.ts)
-            if gaps.size:
-                k = int(gaps[0])
-                raise InputError(
-                    f"{self.name}: row {offset + k + 1}: time step {step[k]:g} s where the file's sample time is "
-                    f"{self.ts:g} s; a gap or uneven sampling ({gaps.size} such steps in this stretch)"
-                )
+            if gaps.size and not self.gaps_allowed:
+                raise self._gap_error(offset + int(gaps[0]) + 1, float(step[gaps[0]]), gaps.size)
+            first = block.first - (0 if self.last_t is None else 1)  # file sample index of joined[0]
+            self.gaps += [(offset + int(k) + 1, first + int(k) + 1, float(step[k])) for k in gaps]
         self.last_t = float(t[-1])
+
+    def _gap_error(self, row: int, step_s: float, count: int) -> InputError:
+        return InputError(
+            f"{self.name}: row {row}: time step {step_s:g} s where the file's sample time is {self.ts:g} s; a gap or "
+            f"uneven sampling ({count} such steps)"
+        )
+
+    def after_gaps(self, window: _Block, samples: int) -> tuple[_Block, str | None]:
+        """``window`` (the file's last samples) cut to the stretch after the last gap within it, and what was cut; a
+        file whose time steps are off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
+        if not self.gaps:
+            return window, None
+        if len(self.gaps) > max(1, UNEVEN_SHARE * samples):
+            row, _, step = self.gaps[0]
+            raise self._gap_error(row, step, len(self.gaps))
+        row, start, step = self.gaps[-1]
+        said = f"{len(self.gaps)} gap{'s' if len(self.gaps) > 1 else ''} in the time column, the last at row {row}"
+        said += f" (a step of {step:g} s where the sample time is {self.ts:g} s)"
+        if start <= window.first:
+            return window, said + ": before the samples read"
+        cut = start - window.first
+        kept = {f: x[cut:] for f, x in window.values.items()}
+        return _Block(start, kept), said + f": only the {kept['op'].size} samples after it are read"
 
     # -- the window as an Export ----------------------------------------------------------------
 

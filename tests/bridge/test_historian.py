@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from stiction.bridge import historian
-from stiction.bridge.historian import read_export
+from stiction.bridge.historian import read_export, read_windows
 from stiction.schemas.errors import InputError
 from tests.measured import PLANT
 
@@ -49,7 +49,8 @@ def test_iso_timestamps(tmp_path):
         # a calendar time is said as the file wrote it, not as seconds since 1970
         ("timestamp,op,pv\n" + "".join(f"2026-01-01T00:00:{k:02d},1,1\n" for k in (0, 1, 1, 2)),
          r"row 4: time 2026-01-01T00:00:01 repeats the row before \(2026-01-01T00:00:01\)"),
-        ("t,op,pv\n" + _rows(12) + "30,1,1\n", "row 14: time step 19 s"),
+        # steps off the sample time now and then are gaps (read past: below); this often, uneven sampling
+        ("t,op,pv\n" + _rows(12) + "30,1,1\n40,1,1\n", r"row 14: time step 19 s .* \(2 such steps\)"),
     ],
 )
 def test_bad_exports_name_what_was_wrong(tmp_path, text, message):
@@ -200,3 +201,20 @@ def test_parquet_is_read_by_content_whatever_its_name(tmp_path):
     pq.write_table(table, tmp_path / "export.dat")
     e = read_export(tmp_path / "export.dat")
     assert e.ts_s == 2.0 and e.op.size == 150 and e.pv[0] == 1.0
+
+
+def test_a_gap_in_a_long_export_leaves_the_stretch_after_it_read_and_says_so(tmp_path):
+    """A historian's outage of 20 s in an hour's export: the samples after it are read (a window never spans the gap),
+    and the report's warnings say where it was; asked for samples that all lie after it, nothing is cut."""
+    t = [k for k in range(3600) if not 1000 <= k < 1020]
+    text = "t,op,pv\n" + "".join(f"{k},{50 + np.sin(k / 30):.4f},{40 + np.cos(k / 30):.4f}\n" for k in t)
+    path = _write(tmp_path, text)
+    export = read_export(path)
+    assert export.op.size == 2580 and export.t_s[0] == 1020 and export.first_row == 1002
+    (note,) = [w for w in export.warnings if "gap" in w]
+    assert "row 1002" in note and "21 s" in note and "only the 2580 samples after it" in note
+    later = read_export(path, last=2000)
+    assert later.op.size == 2000 and any("before the samples read" in w for w in later.warnings)
+    # windows every N samples are not cut: a gap is named there as before
+    with pytest.raises(InputError, match="row 1002: time step 21 s"):
+        list(read_windows(path, 600, 300))
