@@ -1,7 +1,8 @@
 """``stiction bench sizing``: S and J on simulated plant-like sticky loops, as ``stiction quantify`` reports them.
 
 Loops: the sticky class of ``sim.plant_loops`` (processes, tunings, dead times and historian
-sampling of their own; OP, PV and SP only), one seed.  Each goes through the quantify
+sampling of their own; OP, PV and SP only), one seed; or (``--simulator two_parameter``) the
+independent simulator's sticky loops, whose valve the fit does not assume.  Each goes through the quantify
 pipeline with the process identification on (``ident.sizing``); for the loops it calls
 sticky the bench prints how many got S and J, their median relative error, and how often
 the truth lies inside S +- 2 s_se_pct and J +- 2 j_se_pct (the issue's goal: S within 25 %,
@@ -62,16 +63,40 @@ def _score(rows: list[dict], s: str, s_se: str | None, j: str | None = None, j_s
     return out
 
 
-def bench_sizing(n_per_class: int = 60, seed: int = 2030, workers: int = 2) -> dict:
-    from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
+SIMULATORS = ("plant", "two_parameter")
+"""Where the sticky loops come from: ``sim.plant_loops`` (the physical valve the fit assumes, under processes and
+tunings of its own), or ``sim.two_parameter``, the independent simulator (Choudhury's data-driven valve, which the
+fit does not assume, under SIMC-tuned flows and levels): its loops whose record shows a fault, stick-slip or
+backlash, S and J by the same definition."""
 
+
+def _items(simulator: str, n: int, seed: int) -> list:
+    """(S, J, the record's sample interval in samples, (op, pv, sp, ts_s)) of each sticky loop."""
+    if simulator == "plant":
+        from stiction.sim.plant_loops import plant_loops, simulate_plant, stable
+
+        loops = [loop for loop in plant_loops(n, seed) if loop.cause == "stiction"]
+        return [
+            (loop.s_pct, loop.j_pct, loop.every, rec)
+            for loop, rec in zip(loops, simulate_plant(loops), strict=True)
+            if stable(rec[0], rec[1])
+        ]
+    if simulator == "two_parameter":
+        from stiction.sim import two_parameter
+        from stiction.sim.plant_families import stable
+
+        loops = [loop for loop in two_parameter.draw(n, seed) if loop.cause in ("stiction", "backlash")]
+        return [
+            (loop.s_pct, loop.j_pct, 1, (rec.op, rec.pv, rec.sp, rec.ts_s))
+            for loop, rec in zip(loops, two_parameter.simulate(loops), strict=True)
+            if stable(rec) and rec.shows_fault
+        ]
+    raise ValueError(f"simulator {simulator!r}: one of {', '.join(SIMULATORS)}")
+
+
+def bench_sizing(n_per_class: int = 60, seed: int = 2030, workers: int = 2, simulator: str = "plant") -> dict:
     t0 = time.perf_counter()
-    loops = [loop for loop in plant_loops(n_per_class, seed) if loop.cause == "stiction"]
-    items = [
-        (loop.s_pct, loop.j_pct, loop.every, rec)
-        for loop, rec in zip(loops, simulate_plant(loops), strict=True)
-        if stable(rec[0], rec[1])
-    ]
+    items = _items(simulator, n_per_class, seed)
     if workers > 1:
         with ProcessPoolExecutor(workers) as pool:
             rows = list(pool.map(_one, items))
@@ -81,6 +106,7 @@ def bench_sizing(n_per_class: int = 60, seed: int = 2030, workers: int = 2) -> d
     why = Counter(_reason(r["why"]) for r in called if r["s"] is None)
     return {
         "seed": seed,
+        "simulator": simulator,
         "loops": len(rows),
         "called_sticky": len(called),
         "identified": _score(called, "s", "s_se", "j", "j_se"),
@@ -104,7 +130,11 @@ def _reason(why: str | None) -> str:
 
 
 def print_table(fig: dict) -> None:
-    print(f"simulated plant-like sticky loops (seed {fig['seed']}): {fig['called_sticky']} of {fig['loops']} "
+    what = {
+        "plant": "simulated plant-like sticky loops",
+        "two_parameter": "the independent simulator's sticky loops (sim.two_parameter, Choudhury's valve)",
+    }
+    print(f"{what[fig.get('simulator', 'plant')]} (seed {fig['seed']}): {fig['called_sticky']} of {fig['loops']} "
           "called sticky; S and J on those, as stiction quantify reports them")  # fmt: skip
     print(f"{'':44s}{'read':>6s}{'S med. rel err':>16s}{'S in 2se':>10s}{'J in 2se':>10s}")
     labels = {"identified": "identified process (the report's headline)",

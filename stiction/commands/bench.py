@@ -147,6 +147,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     z.add_argument("--loops", type=int, default=60, help="simulated plant-like loops per class (the sticky ones run)")
     z.add_argument("--seed", type=int, default=2030, help="2026 and 2027 chose the model error (ident.sizing)")
     z.add_argument("--workers", type=int, default=2)
+    z.add_argument(
+        "--simulator",
+        choices=("plant", "two_parameter"),
+        default="plant",
+        help="plant: sim.plant_loops (the physical valve the fit assumes); two_parameter: the independent simulator "
+        "(Choudhury's valve under SIMC-tuned flows and levels; --loops per cause)",
+    )
     z.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
@@ -198,7 +205,7 @@ def _sizing(args) -> None:
 
     if args.loops < 1 or args.workers < 1:
         raise InputError(f"--loops {args.loops} --workers {args.workers}: need at least 1 each")
-    _emit(args, _host(bench_sizing(args.loops, args.seed, args.workers)), print_table)
+    _emit(args, _host(bench_sizing(args.loops, args.seed, args.workers, args.simulator)), print_table)
 
 
 def _detect(args) -> None:

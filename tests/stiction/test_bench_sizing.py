@@ -1,0 +1,22 @@
+"""``stiction bench sizing``'s loops: the sticky loops of either simulator, with the S and J they were given."""
+
+import pytest
+
+from stiction.bench.sizing import _items
+
+
+def test_the_independent_simulators_loops_are_the_sticky_ones_whose_record_shows_the_fault():
+    from stiction.sim import two_parameter
+
+    items = _items("two_parameter", 4, 2030)
+    loops = [loop for loop in two_parameter.draw(4, 2030) if loop.cause in ("stiction", "backlash")]
+    records = two_parameter.simulate(loops)
+    shown = [(loop.s_pct, loop.j_pct) for loop, rec in zip(loops, records, strict=True) if rec.shows_fault]
+    # backlash (J = 0) among them: a valve fault by the report's definition (spec/interfaces.md)
+    hidden = {(loop.s_pct, loop.j_pct) for loop, rec in zip(loops, records, strict=True) if not rec.shows_fault}
+    read = {(s, j) for s, j, _, _ in items}
+    assert read and read <= set(shown) and not read & hidden and any(j == 0 for _, j in read)
+    for _, _, _, (op, pv, sp, ts_s) in items:
+        assert op.shape == pv.shape == sp.shape and ts_s in two_parameter.SAMPLE_TIMES_S
+    with pytest.raises(ValueError, match="one of plant, two_parameter"):
+        _items("thesis", 1, 1)
