@@ -41,6 +41,7 @@ def _one(item) -> dict:
     if r.s_pct is not None:
         # the fit's own errors: the model error taken back out
         row["s_se_fit"] = float(np.sqrt(max(r.s_se_pct**2 - (MODEL_ERROR_S * r.s_pct) ** 2, 0.0)))
+    if r.j_pct is not None:  # S may be read alone (ident.trust.band_alone)
         row["j_se_fit"] = float(np.sqrt(max(r.j_se_pct**2 - (MODEL_ERROR_J * r.s_pct) ** 2, 0.0)))
     if r.learned.fs_pct is not None:
         s, j = band_and_jump_pct(r.learned.fs_pct, r.learned.fd_pct)
@@ -59,7 +60,10 @@ def _score(rows: list[dict], s: str, s_se: str | None, j: str | None = None, j_s
     if s_se:
         out["s_covered"] = float(np.mean([abs(r[s] - r["s_true"]) <= 2 * r[s_se] for r in read]))
     if j and j_se:
-        out["j_covered"] = float(np.mean([abs(r[j] - r["j_true"]) <= 2 * r[j_se] for r in read]))
+        with_j = [r for r in read if r.get(j) is not None]  # S may be read alone (ident.trust.band_alone)
+        out["j_read"] = len(with_j)
+        if with_j:
+            out["j_covered"] = float(np.mean([abs(r[j] - r["j_true"]) <= 2 * r[j_se] for r in with_j]))
     return out
 
 
@@ -136,13 +140,13 @@ def print_table(fig: dict) -> None:
     }
     print(f"{what[fig.get('simulator', 'plant')]} (seed {fig['seed']}): {fig['called_sticky']} of {fig['loops']} "
           "called sticky; S and J on those, as stiction quantify reports them")  # fmt: skip
-    print(f"{'':44s}{'read':>6s}{'S med. rel err':>16s}{'S in 2se':>10s}{'J in 2se':>10s}")
+    print(f"{'':44s}{'S read':>7s}{'J read':>7s}{'S med. rel err':>16s}{'S in 2se':>10s}{'J in 2se':>10s}")
     labels = {"identified": "identified process (the report's headline)",
               "fit_errors_only": "  same, the fit's own errors only",
               "learned": "learned thesis-loop models (block only)"}  # fmt: skip
     for key, label in labels.items():
         s = fig[key]
-        cells = [f"{s['read']:6d}"]
+        cells = [f"{s['read']:7d}", f"{s['j_read']:7d}" if "j_read" in s else f"{'-':>7s}"]
         cells.append(f"{100 * s['s_median_rel_err']:15.0f}%" if "s_median_rel_err" in s else f"{'-':>16s}")
         for k in ("s_covered", "j_covered"):
             cells.append(f"{100 * s[k]:9.0f}%" if k in s else f"{'-':>10s}")

@@ -22,6 +22,8 @@ from stiction.ident.models import (
 from stiction.ident.process import NOMINAL, ranged
 from stiction.ident.record import Record
 from stiction.ident.trust import (
+    J_NOT_SEPARABLE,
+    band_alone,
     band_doubts,
     holds_zero,
     stuck_travel_contradicts,
@@ -195,8 +197,11 @@ def diagnosis_report(
     if unfit:
         notes.append(_worse_course(base_error, extended_error, unfit=True))
     withheld = linear or impossible_valve(f, op_range) or blocking(problems) or unfit
+    alone = None if withheld else band_alone(f)  # the stop held at its bound: S alone (ident.trust)
+    if alone is not None:
+        notes.append(J_NOT_SEPARABLE)
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
-    f = _without_friction(f) if withheld else with_model_error(f)
+    f = _without_friction(f) if withheld else (alone or with_model_error(f))
     unsure = None if withheld else without_uncertainty(f)
     if unsure:
         notes.append(unsure)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from stiction.sim.valve import friction_se_pct
+from stiction.sim.valve import PCT_OF_500LBF_PER_PCT_OF_SPAN, friction_se_pct
 
 MODEL_ERROR_S = 0.20
 """Standard error of S from the model's mismatch, as a share of S (seeds 2026, 2027 of ``sim.plant_loops``)."""
@@ -43,16 +43,43 @@ def stuck_travel_contradicts(s_pct: float, s_se_pct: float, travel_pct: float) -
 
 
 def without_uncertainty(f) -> str | None:
-    """Why a band the fit reads cannot be given, or None: S or J without a standard error (a parameter held at its
-    bound, as fd at zero with the whole band read as jump, has none).  Every number a report gives has one;
-    ``ident.sizing`` turns such a reading down the same way."""
-    if not math.isfinite(f.s_pct) or (math.isfinite(f.s_se_pct) and math.isfinite(f.j_se_pct)):
+    """Why a band the fit reads cannot be given, or None: S, or a J given, without a standard error (a parameter
+    held at its bound, as fd at zero with the whole band read as jump, has none; ``band_alone`` reads S there).
+    Every number a report gives has one; ``ident.sizing`` turns such a reading down the same way."""
+    if not math.isfinite(f.s_pct) or (math.isfinite(f.s_se_pct) and (math.isfinite(f.j_se_pct)
+                                                                       or not math.isfinite(f.j_pct))):  # fmt: skip
         return None
     return (
         f"the fit reads S {f.s_pct:.3g} % and J {f.j_pct:.3g} % of span with no standard error (a parameter held at "
         "its bound, as fd at zero with the whole band read as jump): S and J are not separable from the process "
         "gain in this record, and its friction numbers are withheld"
     )
+
+
+J_NOT_SEPARABLE = (
+    "J not read: the fit holds the valve's stop at its bound (the whole band read as jump), and the band's split into "
+    "slip and stop is not separable from the process gain in this record; S, the OP travel after a reversal before "
+    "the stem moves, is read from when the slips happen, with the band's error and the model error"
+)
+
+
+def band_alone(f):
+    """Where the fit holds the stop at its bound (fd at zero: S = J = the static band b, J with no standard error),
+    ``f`` with S alone: its standard error the band's (the stop held) and the model error, J, fs and fd not given;
+    None otherwise.  S is what the slips' timing reads (when the drive has travelled the band and the stop after a
+    reversal), the split into slip and stop is what the bound hides: on the independent simulator's sticky loops
+    (``sim.two_parameter``, Choudhury's valve, seed 2030: 9 of 41 held so) S so read was 17 % off in median and within
+    two of these errors on 8 of 9, where J read as S was 2-3 times the true slip (2026-11-27)."""
+    if not (math.isfinite(f.s_pct) and not math.isfinite(f.s_se_pct) and math.isfinite(f.fs_se_pct)):
+        return None
+    if not abs(f.s_pct - f.j_pct) <= 1e-9 * max(1.0, abs(f.s_pct)):  # not the stop at its bound: another parameter
+        return None
+    b_se = f.fs_se_pct / PCT_OF_500LBF_PER_PCT_OF_SPAN
+    nan = float("nan")
+    return replace(
+        f, s_se_pct=math.hypot(b_se, MODEL_ERROR_S * f.s_pct), j_pct=nan, j_se_pct=nan, fs_pct=nan, fd_pct=nan,
+        fs_se_pct=nan, fd_se_pct=nan,
+    )  # fmt: skip
 
 
 def with_model_error(f):
