@@ -120,8 +120,8 @@ def test_where_the_fit_holds_the_stop_at_its_bound_s_is_read_alone_with_its_erro
 
     nan = float("nan")
     b_se = 0.3
-    pinned = Friction(3.0, 3.0, nan, nan, 3.0 * PCT_OF_500LBF_PER_PCT_OF_SPAN, 0.0, b_se * PCT_OF_500LBF_PER_PCT_OF_SPAN,
-                      nan, 20)  # fmt: skip
+    per = PCT_OF_500LBF_PER_PCT_OF_SPAN
+    pinned = Friction(3.0, 3.0, nan, nan, 3.0 * per, 0.0, b_se * per, nan, 20)
     alone = band_alone(pinned)
     assert alone.s_pct == 3.0 and alone.s_se_pct == pytest.approx(math.hypot(b_se, MODEL_ERROR_S * 3.0))
     assert all(math.isnan(v) for v in (alone.j_pct, alone.j_se_pct, alone.fs_pct, alone.fd_pct))
