@@ -24,10 +24,14 @@ def _title(report) -> str:
     if report.s_pct is not None:
         s_se = f" +- {report.s_se_pct:.2f}" if report.s_se_pct is not None else ""
         j_se = f" +- {report.j_se_pct:.2f}" if report.j_se_pct is not None else ""
-        head += (
-            f"; S {report.s_pct:.2f}{s_se} %, J {report.j_pct:.2f}{j_se} % of span"
-            f" (fs {report.fs_pct:.1f}, fd {report.fd_pct:.1f} % of 500 lbf; {report.method})"
+        # S may be read alone (the fit's stop held at its bound: J, fs and fd null, a warning says why)
+        sj = (
+            f"S {report.s_pct:.2f}{s_se} %, J {report.j_pct:.2f}{j_se} % of span"
+            if report.j_pct is not None
+            else f"S {report.s_pct:.2f}{s_se} % of span, J not read"
         )
+        thesis = f"fs {report.fs_pct:.1f}, fd {report.fd_pct:.1f} % of 500 lbf; " if report.fs_pct is not None else ""
+        head += f"; {sj} ({thesis}{report.method})"
     return _with_warnings([head], report.warnings)
 
 
@@ -84,11 +88,12 @@ def _diagnosis_title(report) -> str:
     from stiction.ident.report import causes_text
 
     causes = causes_text(report)
-    sj = (
-        f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} %, J {report.j_pct:.2f} ± {report.j_se_pct:.2f} % of span"
-        if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None
-        else "no friction read"
-    )
+    if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None:
+        sj = f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} %, J {report.j_pct:.2f} ± {report.j_se_pct:.2f} % of span"
+    elif report.s_pct is not None and report.s_se_pct is not None:  # S alone (ident.trust.band_alone)
+        sj = f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} % of span, J not read"
+    else:
+        sj = "no friction read"
     # S's error holds the actuator lag's doubt: the line it trades along says how a stroke test's lag narrows it
     sj += "".join(
         f" (S about {t.parameters['s_pct_at_no_lag']:.3g} - {t.parameters['s_pct_per_lag_s']:.3g} x the actuator's "

@@ -15,6 +15,14 @@ def _report(warnings):
     )  # fmt: skip
 
 
+def test_s_read_alone_is_titled_without_j():
+    # the fit's stop held at its bound: S given, J, fs and fd null (ident.trust.band_alone)
+    report = _report(["J not read: ..."])
+    report.j_pct = report.j_se_pct = report.fs_pct = report.fd_pct = None
+    head = _title(report).splitlines()[0]
+    assert "S 2.00 +- 0.40 % of span, J not read (identified)" in head
+
+
 def test_a_long_warning_is_wrapped_not_cut():
     long = "process identified from OP and PV (stiction diagnose): " + "first order, T 9.2 s; " * 20 + "THE END"
     title = _title(_report([long, "short one"]))
