@@ -6,7 +6,8 @@ and decimal mark are read from the content (``bridge.dialect``).  Files are read
 only the window asked for is kept (``last`` samples, or one window every ``every`` samples), so
 memory follows the window, not the file.  Every problem is an ``InputError`` naming the file,
 the row (1-based, counting the header as row 1) or the column, and what was expected; but a gap or two in the
-time column (``UNEVEN_SHARE``) is a warning of ``read_export``, which keeps the samples after the last one.
+time column (``UNEVEN_SHARE``) is a warning: ``read_export`` keeps the samples after the last one, and the windows
+of ``read_windows`` start afresh after each.
 """
 
 from __future__ import annotations
@@ -102,21 +103,45 @@ def read_windows(
 ) -> Iterator[Export]:
     """Windows of ``length`` samples, one ending every ``every`` samples from the first full one,
     and a last one ending at the file's end; a file shorter than ``length`` gives one window of
-    all its samples."""
+    all its samples.  No window spans a gap in the time column: after one they start afresh (the first
+    ending ``length`` samples after it), as the agent's rolling window does, and the first says so."""
     if length < 1 or every < 1:
         raise InputError(f"window of {length} samples every {every}: both must be at least 1")
     reader = _Reader(path, ts_s, columns, pv_span)
+    reader.gaps_allowed = True
     tail = _Tail(length)
-    next_end = length
+    next_end, floor, last_end, told, note = length, 0, 0, 0, None
+
+    def window(end: int) -> Export:
+        nonlocal last_end, note
+        export = reader.export(tail.window(end=end), None)
+        last_end = end
+        if note is not None:
+            export, note = replace(export, warnings=(note, *export.warnings)), None
+        return export
+
     for block in reader.blocks():
-        tail.add(block, keep_from=max(0, next_end - length))
+        tail.add(block, keep_from=max(floor, next_end - length))
+        for row, start, step in reader.gaps[told:]:
+            while next_end <= start:  # the windows that end before the gap
+                yield window(next_end)
+                next_end += every
+            reader.uneven(tail.seen)
+            floor, next_end = start, start + length
+            note = (
+                f"a gap in the time column at row {row} (a step of {step:g} s where the sample time is "
+                f"{reader.ts:g} s): the windows start afresh after it"
+            )
+        told = len(reader.gaps)
         while tail.seen >= next_end:
-            yield reader.export(tail.window(end=next_end), None)
+            yield window(next_end)
             next_end += every
     if tail.seen == 0:
         raise InputError(f"{reader.name}: header only, no samples")
-    if next_end == length or tail.seen > next_end - every:  # a short file; the newest samples
-        yield reader.export(tail.window(), tail.seen)
+    if tail.seen > last_end:  # a short file, or the newest samples since the last window
+        last, gap_note = reader.after_gaps(tail.window(), tail.seen)
+        export = reader.export(last, tail.seen)
+        yield export if gap_note is None else replace(export, warnings=(gap_note, *export.warnings))
 
 
 @dataclass
@@ -368,14 +393,19 @@ class _Reader:
             f"uneven sampling ({count} such steps)"
         )
 
+    def uneven(self, samples: int) -> None:
+        """Refuses a file whose time steps are off its sample time at more than ``UNEVEN_SHARE`` of its ``samples``
+        read so far: uneven sampling, not a gap or two."""
+        if len(self.gaps) > max(1, UNEVEN_SHARE * samples):
+            row, _, step = self.gaps[0]
+            raise self._gap_error(row, step, len(self.gaps))
+
     def after_gaps(self, window: _Block, samples: int) -> tuple[_Block, str | None]:
         """``window`` (the file's last samples) cut to the stretch after the last gap within it, and what was cut; a
         file whose time steps are off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
         if not self.gaps:
             return window, None
-        if len(self.gaps) > max(1, UNEVEN_SHARE * samples):
-            row, _, step = self.gaps[0]
-            raise self._gap_error(row, step, len(self.gaps))
+        self.uneven(samples)
         row, start, step = self.gaps[-1]
         said = f"{len(self.gaps)} gap{'s' if len(self.gaps) > 1 else ''} in the time column, the last at row {row}"
         said += f" (a step of {step:g} s where the sample time is {self.ts:g} s)"

@@ -215,6 +215,15 @@ def test_a_gap_in_a_long_export_leaves_the_stretch_after_it_read_and_says_so(tmp
     assert "row 1002" in note and "21 s" in note and "only the 2580 samples after it" in note
     later = read_export(path, last=2000)
     assert later.op.size == 2000 and any("before the samples read" in w for w in later.warnings)
-    # windows every N samples are not cut: a gap is named there as before
-    with pytest.raises(InputError, match="row 1002: time step 21 s"):
-        list(read_windows(path, 600, 300))
+    # windows every N samples never span it: they start afresh after it, the first saying so
+    windows = list(read_windows(path, 600, 300))
+    ends = [w.t_s[-1] for w in windows]
+    assert ends == [599, 899, 1619, 1919, 2219, 2519, 2819, 3119, 3419, 3599]
+    assert all(np.all(np.diff(w.t_s) == 1) for w in windows)
+    assert [any("start afresh" in n for n in w.warnings) for w in windows] == [False] * 2 + [True] + [False] * 7
+    # a time column off its sample time at every few samples is uneven sampling, refused either way
+    uneven = _write(tmp_path, "t,op,pv\n" + "".join(f"{k + (k // 10) * 0.5},1,{k % 7}\n" for k in range(400)),
+                    "uneven.csv")  # fmt: skip
+    for read in (lambda: read_export(uneven), lambda: list(read_windows(uneven, 100, 50))):
+        with pytest.raises(InputError, match="such steps"):
+            read()
