@@ -25,7 +25,7 @@ _NOT_IN_ID = re.compile(r"[^A-Za-z0-9_.:=+#-]")
 
 @dataclass(frozen=True)
 class Track:
-    """One export as a stream: evenly spaced samples (the reader refuses gaps)."""
+    """One export as a stream: evenly spaced samples (an export's stretch after its last gap in time: ``notes``)."""
 
     loop_id: str
     ts_s: float
@@ -38,6 +38,8 @@ class Track:
     process: str | None = None
     source: str | None = None
     """The export it was read from."""
+    notes: tuple[str, ...] = ()
+    """What the reader left out of the export (a gap in its time column, and what came before it)."""
 
     @property
     def duration_s(self) -> float:
@@ -59,9 +61,11 @@ def loop_ids(paths: Sequence[Path]) -> list[str]:
 
 def track(loop_id: str, export: Export, process: str | None = None) -> Track:
     t0 = float(export.t_s[0]) if export.t_s is not None and len(export.t_s) else 0.0
+    gaps = tuple(w for w in export.warnings if " in the time column" in w)
     return Track(
-        loop_id, export.ts_s, t0, export.op, export.pv, export.sp, export.mv, export.mode, process, str(export.path)
-    )
+        loop_id, export.ts_s, t0, export.op, export.pv, export.sp, export.mv, export.mode, process, str(export.path),
+        gaps,
+    )  # fmt: skip
 
 
 class Schedule:

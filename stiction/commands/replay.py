@@ -83,6 +83,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"nothing to replay: {len(failed)} file(s), none readable")
     for t in tracks:
         keys.check_id(t.loop_id)
+        for note in t.notes:  # a gap in an export's time: only the stretch after it is replayed
+            print(f"replay: {t.source}: {note}", file=sys.stderr)
     if not args.listen and not args.connect and args.config is None:
         args.listen = [DEFAULT_ENDPOINT]
     groups = len(stagger_groups(len(tracks), 1.0 / args.rate))
