@@ -401,19 +401,29 @@ class _Reader:
             raise self._gap_error(row, step, len(self.gaps))
 
     def after_gaps(self, window: _Block, samples: int) -> tuple[_Block, str | None]:
-        """``window`` (the file's last samples) cut to the stretch after the last gap within it, and what was cut; a
-        file whose time steps are off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
+        """``window`` (the file's last samples) cut to its longest stretch between gaps (the latest of equals: after
+        the last gap, unless a gap late in the window leaves less there than before it), and what was cut; a file
+        whose time steps are off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
         if not self.gaps:
             return window, None
         self.uneven(samples)
-        row, start, step = self.gaps[-1]
-        said = f"{len(self.gaps)} gap{'s' if len(self.gaps) > 1 else ''} in the time column, the last at row {row}"
-        said += f" (a step of {step:g} s where the sample time is {self.ts:g} s)"
-        if start <= window.first:
-            return window, said + ": before the samples read"
-        cut = start - window.first
-        kept = {f: x[cut:] for f, x in window.values.items()}
-        return _Block(start, kept), said + f": only the {kept['op'].size} samples after it are read"
+        end = window.first + window.values["op"].size
+        inside = [g for g in self.gaps if window.first < g[1] < end]
+        said = f"{len(self.gaps)} gap{'s' if len(self.gaps) > 1 else ''} in the time column"
+        if not inside:
+            row, _, step = self.gaps[-1]
+            return window, said + f", the last at row {row} (a step of {step:g} s): before the samples read"
+        bounds = [window.first, *(g[1] for g in inside), end]
+        k = max(range(len(bounds) - 1), key=lambda i: (bounds[i + 1] - bounds[i], i))  # the longest, latest of equals
+        a, b = bounds[k], bounds[k + 1]
+        kept = {f: x[a - window.first : b - window.first] for f, x in window.values.items()}
+        where = ", ".join(f"row {row} (a step of {step:g} s where the sample time is {self.ts:g} s)" for row, _, step in
+                          inside[-3:])  # fmt: skip
+        if k == len(bounds) - 2:
+            which = "after the last gap"
+        else:
+            which = f"of the longest stretch between gaps (after the last, only {end - bounds[-2]})"
+        return _Block(a, kept), said + f" at {where}: only the {b - a} samples {which} are read"
 
     # -- the window as an Export ----------------------------------------------------------------
 

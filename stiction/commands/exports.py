@@ -73,7 +73,8 @@ def windows(
             )
             for export in found:
                 if export.op.size < min_samples:
-                    raise InputError(f"{path}: {export.op.size} samples, need at least {min_samples}")
+                    gap = next((f" ({w})" for w in export.warnings if " in the time column" in w), "")
+                    raise InputError(f"{path}: {export.op.size} samples, need at least {min_samples}{gap}")
                 yield path, export
         except StictionError as e:
             failed.append(report_error(command, path, e))

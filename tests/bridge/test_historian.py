@@ -212,7 +212,14 @@ def test_a_gap_in_a_long_export_leaves_the_stretch_after_it_read_and_says_so(tmp
     export = read_export(path)
     assert export.op.size == 2580 and export.t_s[0] == 1020 and export.first_row == 1002
     (note,) = [w for w in export.warnings if "gap" in w]
-    assert "row 1002" in note and "21 s" in note and "only the 2580 samples after it" in note
+    assert "row 1002" in note and "21 s" in note and "only the 2580 samples after the last gap" in note
+    # a gap late in the window leaves little after it: the longer stretch before it is read
+    kept = [k for k in range(3600) if not 3500 <= k < 3510]
+    late = _write(tmp_path, "t,op,pv\n" + "".join(f"{k},{50 + np.sin(k / 30):.4f},{40 + np.cos(k / 30):.4f}\n"
+                                                   for k in kept), "late.csv")  # fmt: skip
+    before = read_export(late)
+    assert before.t_s[0] == 0 and before.t_s[-1] == 3499 and before.op.size == 3500
+    assert any("longest stretch between gaps (after the last, only 90)" in w for w in before.warnings)
     later = read_export(path, last=2000)
     assert later.op.size == 2000 and any("before the samples read" in w for w in later.warnings)
     # windows every N samples never span it: they start afresh after it, the first saying so
