@@ -109,12 +109,19 @@ def next_steps(r: StictionReport) -> list[str]:
         )
     if r.verdict == "no_oscillation":
         return ["Nothing to do now: the loop does not cycle. Keep it in the next report."]
-    return [
+    steps = [
         "Fix the record before judging the valve: "
         + (", ".join(c.replace("_", " ") for c in r.checks) or "the data checks failed")
         + " (the warnings say what is wrong). A dead or frozen PV is a sensor or archive fault; manual or a "
         "saturated OP means the controller cannot move the valve."
     ]
+    if "compressed_op" in r.checks:
+        steps.append(
+            "The record is a historian's compressed archive (values stored only when they moved by the archive's "
+            "deadband, straight lines between): export the raw values, or lower the tag's compression deviation "
+            "below the signal's noise, and judge the valve on that."
+        )
+    return steps
 
 
 def _anchor(loop_id: str, k: int) -> str:

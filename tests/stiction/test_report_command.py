@@ -86,7 +86,9 @@ def test_what_to_do_next_follows_the_verdict_and_names_the_band_to_expect():
     external = page.next_steps(_report("v", "other_cause", likely_cause="external_oscillation", period_s=340.0))
     assert any("340 s" in s for s in external) and any("manual" in s for s in external)
     bad = page.next_steps(_report("v", "bad_data", checks=["flat_pv"], stiction_probability=None))
-    assert "flat pv" in bad[0]
+    assert "flat pv" in bad[0] and not any("compression deviation" in s for s in bad)
+    archive = page.next_steps(_report("v", "bad_data", checks=["compressed_op"], stiction_probability=None))
+    assert any("export the raw values" in s and "compression deviation" in s for s in archive)
 
 
 def test_names_from_the_plant_are_text_not_markup():
