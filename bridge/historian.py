@@ -6,8 +6,8 @@ and decimal mark are read from the content (``bridge.dialect``).  Files are read
 only the window asked for is kept (``last`` samples, or one window every ``every`` samples), so
 memory follows the window, not the file.  Every problem is an ``InputError`` naming the file,
 the row (1-based, counting the header as row 1) or the column, and what was expected; but a gap or two in the
-time column (``UNEVEN_SHARE``) is a warning: ``read_export`` keeps the samples after the last one, and the windows
-of ``read_windows`` start afresh after each.
+time column (``UNEVEN_SHARE``) is a warning: ``read_export`` fills the short ones in (``FILL_SHARE``) and keeps the
+samples after the last long one, and the windows of ``read_windows`` start afresh after each.
 """
 
 from __future__ import annotations
@@ -29,6 +29,9 @@ EXPORT_SUFFIXES = (".csv", ".txt", ".tsv", ".parquet", ".pq")
 MAX_BYTES = 4 * 1024**3
 """Larger files are refused unread (they are read in blocks, so this bounds time, not memory)."""
 BLOCK_ROWS = 65536
+FILL_SHARE = 0.1
+"""A gap of at most this share of the window's samples is filled in by linear interpolation, as the agent bridges a
+short gap in a stream (``agent.core.CoreSettings.fill_limit``: a tenth of its window); a longer one cuts the window."""
 UNEVEN_SHARE = 0.01
 """A file with time steps off its sample time at more than this share of its samples is unevenly sampled, not a record
 with a gap or two, and is refused; with fewer, ``read_export`` reads the stretch after the last gap."""
@@ -51,10 +54,12 @@ class Export:
     """File row of the first sample kept (the header is row 1)."""
     rows_in_file: int | None = None
     """Samples in the whole file (None until the file has been read to its end)."""
+    interpolated: int = 0
+    """Samples filled in by linear interpolation across short gaps in the time column (``FILL_SHARE``)."""
 
     @property
     def last_row(self) -> int:
-        return self.first_row + self.op.size - 1
+        return self.first_row + self.op.size - self.interpolated - 1
 
 
 def expand_paths(paths: Sequence[Path]) -> list[Path]:
@@ -88,8 +93,8 @@ def read_export(
     window = tail.window()
     if window is None:
         raise InputError(f"{reader.name}: header only, no samples")
-    window, gap_note = reader.after_gaps(window, tail.seen)
-    export = reader.export(window, tail.seen)
+    window, gap_note, filled = reader.after_gaps(window, tail.seen)
+    export = reader.export(window, tail.seen, filled)
     return export if gap_note is None else replace(export, warnings=(gap_note, *export.warnings))
 
 
@@ -139,8 +144,8 @@ def read_windows(
     if tail.seen == 0:
         raise InputError(f"{reader.name}: header only, no samples")
     if tail.seen > last_end:  # a short file, or the newest samples since the last window
-        last, gap_note = reader.after_gaps(tail.window(), tail.seen)
-        export = reader.export(last, tail.seen)
+        last, gap_note, filled = reader.after_gaps(tail.window(), tail.seen)
+        export = reader.export(last, tail.seen, filled)
         yield export if gap_note is None else replace(export, warnings=(gap_note, *export.warnings))
 
 
@@ -178,6 +183,24 @@ class _Tail:
 
 PERCENT_SLACK = 5.0
 """How far outside 0-100 a signal in percent of span may read (a transmitter's over- and under-range)."""
+
+
+def _filled(values: dict[str, np.ndarray], ts_s: float) -> tuple[dict[str, np.ndarray], int]:
+    """A stretch's samples on its even time grid: those the time column skips filled in by linear interpolation (a
+    mode held from the sample before); and how many were filled."""
+    t = values["t"]
+    grid = t[0] + ts_s * np.arange(int(round((t[-1] - t[0]) / ts_s)) + 1)
+    if grid.size <= t.size:
+        return values, 0
+    out = {}
+    for f, x in values.items():
+        if f == "t":
+            out[f] = grid
+        elif f == "mode":
+            out[f] = x[np.clip(np.searchsorted(t, grid + 1e-9 * ts_s, side="right") - 1, 0, t.size - 1)]
+        else:
+            out[f] = np.interp(grid, t, x)
+    return out, grid.size - t.size
 
 
 EPOCH_FROM_S = 1e8
@@ -400,34 +423,46 @@ class _Reader:
             row, _, step = self.gaps[0]
             raise self._gap_error(row, step, len(self.gaps))
 
-    def after_gaps(self, window: _Block, samples: int) -> tuple[_Block, str | None]:
-        """``window`` (the file's last samples) cut to its longest stretch between gaps (the latest of equals: after
-        the last gap, unless a gap late in the window leaves less there than before it), and what was cut; a file
-        whose time steps are off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
+    def after_gaps(self, window: _Block, samples: int) -> tuple[_Block, str | None, int]:
+        """``window`` (the file's last samples) with its short gaps filled in (``FILL_SHARE``) and cut to its longest
+        stretch between longer ones (the latest of equals: after the last, unless a gap late in the window leaves
+        less there than before it); what was done, and how many samples were filled in.  A file whose time steps are
+        off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
         if not self.gaps:
-            return window, None
+            return window, None, 0
         self.uneven(samples)
         end = window.first + window.values["op"].size
         inside = [g for g in self.gaps if window.first < g[1] < end]
         said = f"{len(self.gaps)} gap{'s' if len(self.gaps) > 1 else ''} in the time column"
         if not inside:
             row, _, step = self.gaps[-1]
-            return window, said + f", the last at row {row} (a step of {step:g} s): before the samples read"
-        bounds = [window.first, *(g[1] for g in inside), end]
+            return window, said + f", the last at row {row} (a step of {step:g} s): before the samples read", 0
+        limit = max(1, int(FILL_SHARE * window.values["op"].size))
+        long = [g for g in inside if round(g[2] / self.ts) - 1 > limit]
+        bounds = [window.first, *(g[1] for g in long), end]
         k = max(range(len(bounds) - 1), key=lambda i: (bounds[i + 1] - bounds[i], i))  # the longest, latest of equals
         a, b = bounds[k], bounds[k + 1]
-        kept = {f: x[a - window.first : b - window.first] for f, x in window.values.items()}
-        where = ", ".join(f"row {row} (a step of {step:g} s where the sample time is {self.ts:g} s)" for row, _, step in
-                          inside[-3:])  # fmt: skip
-        if k == len(bounds) - 2:
-            which = "after the last gap"
-        else:
-            which = f"of the longest stretch between gaps (after the last, only {end - bounds[-2]})"
-        return _Block(a, kept), said + f" at {where}: only the {b - a} samples {which} are read"
+        values, filled = _filled({f: x[a - window.first : b - window.first] for f, x in window.values.items()}, self.ts)
+        parts = []
+        if long:
+            where = ", ".join(f"row {row} (a step of {step:g} s where the sample time is {self.ts:g} s)"
+                              for row, _, step in long[-3:])  # fmt: skip
+            which = (
+                "after the last long gap"
+                if k == len(bounds) - 2
+                else f"of the longest stretch between long gaps (after the last, only {end - bounds[-2]})"
+            )
+            parts.append(f"at {where}: only the {b - a} samples {which} are read")
+        if filled:
+            short = sum(a < g[1] < b for g in inside)
+            gaps = f"{short} short gap{'s' if short > 1 else ''}"
+            parts.append(f"{filled} samples filled in by linear interpolation across {gaps} (at most a tenth of the "
+                         "window each, as the agent does)")  # fmt: skip
+        return _Block(a, values), said + (" " if long else ": ") + "; ".join(parts), filled
 
     # -- the window as an Export ----------------------------------------------------------------
 
-    def export(self, block: _Block, rows_in_file: int | None) -> Export:
+    def export(self, block: _Block, rows_in_file: int | None, interpolated: int = 0) -> Export:
         v = block.values
         n = v["op"].size
         notes = []
@@ -473,9 +508,10 @@ class _Reader:
             )
         if "mode" in v and np.ptp(v["mode"]) > 0:
             notes.append("the mode column changes within the file: part of it may be in manual (open loop)")
-        if (rows_in_file is not None and n < rows_in_file) or block.first > 0:
-            of = f"{n} of {rows_in_file} samples" if rows_in_file is not None else f"{n} samples"
-            notes.append(f"rows {block.first + 2}-{block.first + n + 1} of the file analysed ({of})")
+        rows = n - interpolated  # the file's rows among the samples
+        if (rows_in_file is not None and rows < rows_in_file) or block.first > 0:
+            of = f"{rows} of {rows_in_file} samples" if rows_in_file is not None else f"{rows} samples"
+            notes.append(f"rows {block.first + 2}-{block.first + rows + 1} of the file analysed ({of})")
         return Export(
             self.name,
             op,
@@ -488,4 +524,5 @@ class _Reader:
             v.get("mode"),
             block.first + 2,
             rows_in_file,
+            interpolated,
         )

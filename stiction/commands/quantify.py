@@ -176,6 +176,7 @@ def quantified(
                     t_end_s=float(export.t_s[-1]),
                     process=args.process,
                     sp=export.sp,
+                    interpolated=export.interpolated,
                 )
                 result = quantifier.results([window], details=details)[0]
             except Exception as e:  # one bad file (or a fault of ours in one) never stops the others

@@ -203,27 +203,35 @@ def test_parquet_is_read_by_content_whatever_its_name(tmp_path):
     assert e.ts_s == 2.0 and e.op.size == 150 and e.pv[0] == 1.0
 
 
+def _export_at(tmp_path, times, name):
+    rows = "".join(f"{k},{50 + np.sin(k / 30):.4f},{40 + np.cos(k / 30):.4f}\n" for k in times)
+    return _write(tmp_path, "t,op,pv\n" + rows, name)
+
+
 def test_a_gap_in_a_long_export_leaves_the_stretch_after_it_read_and_says_so(tmp_path):
-    """A historian's outage of 20 s in an hour's export: the samples after it are read (a window never spans the gap),
-    and the report's warnings say where it was; asked for samples that all lie after it, nothing is cut."""
-    t = [k for k in range(3600) if not 1000 <= k < 1020]
-    text = "t,op,pv\n" + "".join(f"{k},{50 + np.sin(k / 30):.4f},{40 + np.cos(k / 30):.4f}\n" for k in t)
-    path = _write(tmp_path, text)
+    """A historian's outage in an hour's export.  A long one (more than a tenth of the window) cuts it: the samples
+    after it are read, and the warnings say where it was; asked for samples that all lie after it, nothing is cut.  A
+    short one is filled in by linear interpolation, as the agent bridges a short gap in a stream."""
+    path = _export_at(tmp_path, [k for k in range(3600) if not 1000 <= k < 1500], "x.csv")
     export = read_export(path)
-    assert export.op.size == 2580 and export.t_s[0] == 1020 and export.first_row == 1002
+    assert export.op.size == 2100 and export.t_s[0] == 1500 and export.first_row == 1002 and export.interpolated == 0
     (note,) = [w for w in export.warnings if "gap" in w]
-    assert "row 1002" in note and "21 s" in note and "only the 2580 samples after the last gap" in note
-    # a gap late in the window leaves little after it: the longer stretch before it is read
-    kept = [k for k in range(3600) if not 3500 <= k < 3510]
-    late = _write(tmp_path, "t,op,pv\n" + "".join(f"{k},{50 + np.sin(k / 30):.4f},{40 + np.cos(k / 30):.4f}\n"
-                                                   for k in kept), "late.csv")  # fmt: skip
-    before = read_export(late)
-    assert before.t_s[0] == 0 and before.t_s[-1] == 3499 and before.op.size == 3500
-    assert any("longest stretch between gaps (after the last, only 90)" in w for w in before.warnings)
+    assert "row 1002" in note and "501 s" in note and "only the 2100 samples after the last long gap" in note
+    # short gaps: filled, the even grid restored, the samples counted, the rows said as the file's
+    short = _export_at(tmp_path, [k for k in range(3600) if k not in (700, 1800, 1801, 2900)], "short.csv")
+    filled = read_export(short)
+    assert filled.op.size == 3600 and filled.interpolated == 4 and np.all(np.diff(filled.t_s) == 1)
+    assert filled.op[700] == pytest.approx(0.5 * (filled.op[699] + filled.op[701])) and filled.last_row == 3597
+    assert any("4 samples filled in by linear interpolation across 3 short gaps" in w for w in filled.warnings)
+    # a long gap late in the window leaves little after it: the longer stretch before it is read
+    late = read_export(_export_at(tmp_path, [k for k in range(3600) if not 3100 <= k < 3500], "late.csv"))
+    assert late.t_s[0] == 0 and late.t_s[-1] == 3099 and late.op.size == 3100
+    assert any("longest stretch between long gaps (after the last, only 100)" in w for w in late.warnings)
     later = read_export(path, last=2000)
     assert later.op.size == 2000 and any("before the samples read" in w for w in later.warnings)
-    # windows every N samples never span it: they start afresh after it, the first saying so
-    windows = list(read_windows(path, 600, 300))
+    # windows every N samples never span a gap: they start afresh after it, the first saying so
+    once = _export_at(tmp_path, [k for k in range(3600) if not 1000 <= k < 1020], "once.csv")
+    windows = list(read_windows(once, 600, 300))
     ends = [w.t_s[-1] for w in windows]
     assert ends == [599, 899, 1619, 1919, 2219, 2519, 2819, 3119, 3419, 3599]
     assert all(np.all(np.diff(w.t_s) == 1) for w in windows)

@@ -85,9 +85,9 @@ def test_the_exports_are_read_into_tracks_and_a_bad_or_short_one_is_named_with_i
     errors = {p.name: str(e) for p, e in failed}
     assert set(errors) == {"bad.csv", "short.csv"}
     assert "'x' is not a number" in errors["bad.csv"] and "need at least 250" in errors["short.csv"]
-    # an export with a gap in its time: the stretch after it is replayed, and the track says what was left out
-    (tmp_path / "gap.csv").write_text("t,op,pv\n" + "".join(rows[:20] + rows[40:]))
-    tracks, _ = read_tracks([tmp_path / "gap.csv"], None, None, min_samples=250)
+    # an export with a long gap in its time: the stretch after it is replayed, and the track says what was left out
+    (tmp_path / "gap.csv").write_text("t,op,pv\n" + "".join(rows[:20] + rows[60:]))
+    tracks, _ = read_tracks([tmp_path / "gap.csv"], None, None, min_samples=200)
     (gapped,) = tracks
-    assert gapped.op.size == 260 and gapped.t0_s == 40 and len(gapped.notes) == 1 and "row 22" in gapped.notes[0]
+    assert gapped.op.size == 240 and gapped.t0_s == 60 and len(gapped.notes) == 1 and "row 22" in gapped.notes[0]
     assert not read_tracks([tmp_path / "FIC101.csv"], None, None, min_samples=250)[0][0].notes
