@@ -16,7 +16,7 @@ import csv
 import itertools
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +56,8 @@ class Export:
     """Samples in the whole file (None until the file has been read to its end)."""
     interpolated: int = 0
     """Samples filled in by linear interpolation across short gaps in the time column (``FILL_SHARE``)."""
+    gap_note: str | None = None
+    """What gaps in the time column did to this window (the first of ``warnings``), or None."""
 
     @property
     def last_row(self) -> int:
@@ -90,12 +92,12 @@ def read_export(
     tail = _Tail(last)
     for block in reader.blocks():
         tail.add(block)
+        if last is not None:
+            reader.forget_gaps(tail.seen - last)
     window = tail.window()
     if window is None:
         raise InputError(f"{reader.name}: header only, no samples")
-    window, gap_note, filled = reader.after_gaps(window, tail.seen)
-    export = reader.export(window, tail.seen, filled)
-    return export if gap_note is None else replace(export, warnings=(gap_note, *export.warnings))
+    return reader.export_mended(window, tail.seen)
 
 
 def read_windows(
@@ -119,10 +121,7 @@ def read_windows(
 
     def window(end: int) -> Export:
         nonlocal last_end, note
-        export = reader.export(tail.window(end=end), None)
-        last_end = end
-        if note is not None:
-            export, note = replace(export, warnings=(note, *export.warnings)), None
+        export, last_end, note = reader.export(tail.window(end=end), None, gap_note=note), end, None
         return export
 
     for block in reader.blocks():
@@ -137,16 +136,15 @@ def read_windows(
                 f"a gap in the time column at row {row} (a step of {step:g} s where the sample time is "
                 f"{reader.ts:g} s): the windows start afresh after it"
             )
-        told = len(reader.gaps)
         while tail.seen >= next_end:
             yield window(next_end)
             next_end += every
+        reader.forget_gaps(tail.seen - length)
+        told = len(reader.gaps)
     if tail.seen == 0:
         raise InputError(f"{reader.name}: header only, no samples")
     if tail.seen > last_end:  # a short file, or the newest samples since the last window
-        last, gap_note, filled = reader.after_gaps(tail.window(), tail.seen)
-        export = reader.export(last, tail.seen, filled)
-        yield export if gap_note is None else replace(export, warnings=(gap_note, *export.warnings))
+        yield reader.export_mended(tail.window(), tail.seen)
 
 
 @dataclass
@@ -266,7 +264,12 @@ class _Reader:
         self.mode_values: set[float] = set()
         self.gaps_allowed = False
         """``read_export`` reads past gaps (the stretch after the last one is kept); windows every N samples do not."""
-        self.gaps: list[tuple[int, int, float]] = []  # (file row, index of the sample after it, the step [s])
+        self.gaps: list[tuple[int, int, float]] = []
+        """The gaps a window may still hold: (file row, index of the sample after it, the step [s]); older ones are
+        forgotten as the reader moves on (``forget_gaps``), counted in ``gap_count`` and kept at the ends."""
+        self.gap_count = 0
+        self.first_gap: tuple[int, int, float] | None = None
+        self.last_gap: tuple[int, int, float] | None = None
 
     # -- blocks ---------------------------------------------------------------------------------
 
@@ -407,7 +410,11 @@ class _Reader:
             if gaps.size and not self.gaps_allowed:
                 raise self._gap_error(offset + int(gaps[0]) + 1, float(step[gaps[0]]), gaps.size)
             first = block.first - (0 if self.last_t is None else 1)  # file sample index of joined[0]
-            self.gaps += [(offset + int(k) + 1, first + int(k) + 1, float(step[k])) for k in gaps]
+            found = [(offset + int(k) + 1, first + int(k) + 1, float(step[k])) for k in gaps]
+            if found:
+                self.gaps += found
+                self.gap_count += len(found)
+                self.first_gap, self.last_gap = self.first_gap or found[0], found[-1]
         self.last_t = float(t[-1])
 
     def _gap_error(self, row: int, step_s: float, count: int) -> InputError:
@@ -419,23 +426,34 @@ class _Reader:
     def uneven(self, samples: int) -> None:
         """Refuses a file whose time steps are off its sample time at more than ``UNEVEN_SHARE`` of its ``samples``
         read so far: uneven sampling, not a gap or two."""
-        if len(self.gaps) > max(1, UNEVEN_SHARE * samples):
-            row, _, step = self.gaps[0]
-            raise self._gap_error(row, step, len(self.gaps))
+        if self.gap_count > max(1, UNEVEN_SHARE * samples):
+            row, _, step = self.first_gap
+            raise self._gap_error(row, step, self.gap_count)
+
+    def forget_gaps(self, before: int) -> None:
+        """Drops the gaps no window will hold: those whose next sample is at index ``before`` or earlier (an
+        unevenly sampled file of millions of rows would hold a gap for every few)."""
+        if self.gaps and self.gaps[0][1] <= before:
+            self.gaps = [g for g in self.gaps if g[1] > before]
+
+    def export_mended(self, window: _Block, rows_in_file: int) -> Export:
+        """``window`` as an ``Export`` after ``after_gaps``: short gaps filled, cut at the long ones, the note first."""
+        window, note, filled = self.after_gaps(window, rows_in_file)
+        return self.export(window, rows_in_file, filled, note)
 
     def after_gaps(self, window: _Block, samples: int) -> tuple[_Block, str | None, int]:
         """``window`` (the file's last samples) with its short gaps filled in (``FILL_SHARE``) and cut to its longest
         stretch between longer ones (the latest of equals: after the last, unless a gap late in the window leaves
         less there than before it); what was done, and how many samples were filled in.  A file whose time steps are
         off its sample time more than now and then (``UNEVEN_SHARE``) is refused."""
-        if not self.gaps:
+        if not self.gap_count:
             return window, None, 0
         self.uneven(samples)
         end = window.first + window.values["op"].size
         inside = [g for g in self.gaps if window.first < g[1] < end]
-        said = f"{len(self.gaps)} gap{'s' if len(self.gaps) > 1 else ''} in the time column"
+        said = f"{self.gap_count} gap{'s' if self.gap_count > 1 else ''} in the time column"
         if not inside:
-            row, _, step = self.gaps[-1]
+            row, _, step = self.last_gap
             return window, said + f", the last at row {row} (a step of {step:g} s): before the samples read", 0
         limit = max(1, int(FILL_SHARE * window.values["op"].size))
         long = [g for g in inside if round(g[2] / self.ts) - 1 > limit]
@@ -462,10 +480,12 @@ class _Reader:
 
     # -- the window as an Export ----------------------------------------------------------------
 
-    def export(self, block: _Block, rows_in_file: int | None, interpolated: int = 0) -> Export:
+    def export(
+        self, block: _Block, rows_in_file: int | None, interpolated: int = 0, gap_note: str | None = None
+    ) -> Export:
         v = block.values
         n = v["op"].size
-        notes = []
+        notes = [] if gap_note is None else [gap_note]
         if "t" in v:
             ts = self.ts if self.ts is not None else (1.0 if self.ts_flag is None else self.ts_flag)
             if self.ts_flag is not None and abs(self.ts_flag - ts) > GAP_TOLERANCE * ts:
@@ -525,4 +545,5 @@ class _Reader:
             block.first + 2,
             rows_in_file,
             interpolated,
+            gap_note,
         )

@@ -61,7 +61,7 @@ def loop_ids(paths: Sequence[Path]) -> list[str]:
 
 def track(loop_id: str, export: Export, process: str | None = None) -> Track:
     t0 = float(export.t_s[0]) if export.t_s is not None and len(export.t_s) else 0.0
-    gaps = tuple(w for w in export.warnings if " in the time column" in w)
+    gaps = () if export.gap_note is None else (export.gap_note,)
     return Track(
         loop_id, export.ts_s, t0, export.op, export.pv, export.sp, export.mv, export.mode, process, str(export.path),
         gaps,

@@ -73,7 +73,7 @@ def windows(
             )
             for export in found:
                 if export.op.size < min_samples:
-                    gap = next((f" ({w})" for w in export.warnings if " in the time column" in w), "")
+                    gap = "" if export.gap_note is None else f" ({export.gap_note})"
                     raise InputError(f"{path}: {export.op.size} samples, need at least {min_samples}{gap}")
                 yield path, export
         except StictionError as e:

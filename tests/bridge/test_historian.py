@@ -242,3 +242,19 @@ def test_a_gap_in_a_long_export_leaves_the_stretch_after_it_read_and_says_so(tmp
     for read in (lambda: read_export(uneven), lambda: list(read_windows(uneven, 100, 50))):
         with pytest.raises(InputError, match="such steps"):
             read()
+
+
+def test_the_reader_forgets_the_gaps_no_window_holds_and_still_counts_them(tmp_path):
+    # gaps every 150 rows (under a hundredth: read past); the reader keeps only those the last window may hold, so
+    # a file of millions of rows with a gap every few holds no list as long as the file, and the note counts them all
+    times = [k for k in range(30000) if k % 150 != 75]
+    path = _export_at(tmp_path, times, "many.csv")
+    reader, tail = historian._Reader(path, None, None), historian._Tail(600)
+    reader.gaps_allowed = True
+    for block in reader.blocks():
+        tail.add(block)
+        reader.forget_gaps(tail.seen - 600)
+    assert reader.gap_count == 200 and len(reader.gaps) <= 5
+    export = read_export(path, last=600)
+    assert export.gap_note.startswith("200 gaps in the time column") and export.warnings[0] == export.gap_note
+    assert export.interpolated == 4 and np.all(np.diff(export.t_s) == 1)
