@@ -22,17 +22,22 @@ def _title(report) -> str:
     cause = f", likely {report.likely_cause}" if report.verdict == "other_cause" and report.likely_cause else ""
     head = f"{report.loop_id}: {report.verdict.replace('_', ' ')}{cause}{p}"
     if report.s_pct is not None:
-        s_se = f" +- {report.s_se_pct:.2f}" if report.s_se_pct is not None else ""
-        j_se = f" +- {report.j_se_pct:.2f}" if report.j_se_pct is not None else ""
-        # S may be read alone (the fit's stop held at its bound: J, fs and fd null, a warning says why)
-        sj = (
-            f"S {report.s_pct:.2f}{s_se} %, J {report.j_pct:.2f}{j_se} % of span"
-            if report.j_pct is not None
-            else f"S {report.s_pct:.2f}{s_se} % of span, J not read"
-        )
+        sj = _band(report.s_pct, report.s_se_pct, report.j_pct, report.j_se_pct, "+-")
         thesis = f"fs {report.fs_pct:.1f}, fd {report.fd_pct:.1f} % of 500 lbf; " if report.fs_pct is not None else ""
         head += f"; {sj} ({thesis}{report.method})"
     return _with_warnings([head], report.warnings)
+
+
+def _band(s_pct, s_se_pct, j_pct, j_se_pct, pm: str) -> str:
+    """S and J with their errors (``pm`` between, an error left out where there is none); S alone where J is not
+    read (the fit's stop held at its bound: ``ident.trust.band_alone``)."""
+
+    def err(se) -> str:
+        return f" {pm} {se:.2f}" if se is not None else ""
+
+    if j_pct is None:
+        return f"S {s_pct:.2f}{err(s_se_pct)} % of span, J not read"
+    return f"S {s_pct:.2f}{err(s_se_pct)} %, J {j_pct:.2f}{err(j_se_pct)} % of span"
 
 
 def _with_warnings(lines: list[str], warnings) -> str:
@@ -88,10 +93,9 @@ def _diagnosis_title(report) -> str:
     from stiction.ident.report import causes_text
 
     causes = causes_text(report)
-    if report.s_pct is not None and report.s_se_pct is not None and report.j_se_pct is not None:
-        sj = f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} %, J {report.j_pct:.2f} ± {report.j_se_pct:.2f} % of span"
-    elif report.s_pct is not None and report.s_se_pct is not None:  # S alone (ident.trust.band_alone)
-        sj = f"S {report.s_pct:.2f} ± {report.s_se_pct:.2f} % of span, J not read"
+    if report.s_pct is not None and report.s_se_pct is not None:  # J without its error: not read
+        j_pct = report.j_pct if report.j_se_pct is not None else None
+        sj = _band(report.s_pct, report.s_se_pct, j_pct, report.j_se_pct, "±")
     else:
         sj = "no friction read"
     # S's error holds the actuator lag's doubt: the line it trades along says how a stroke test's lag narrows it
