@@ -101,6 +101,17 @@ def test_a_short_file_is_named_by_its_file(tmp_path, capsys, command):
     _one_line_error(capsys, [command, str(short)], "short.csv", "20 samples")
 
 
+@pytest.mark.parametrize("command", ["quantify", "diagnose"])
+def test_a_stretch_a_gap_left_too_short_is_named_with_the_gap(tmp_path, capsys, command):
+    # 150 samples, 50 s missing after the 80th: neither stretch holds the 100 samples a reading needs
+    n = 200
+    path = _loop_csv(tmp_path / "gapped.csv", n=n)
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(lines[:81] + lines[131:]))
+    _one_line_error(capsys, [command, str(path)], "gapped.csv", "80 samples, need at least",
+                    "1 gap in the time column at row 82 (a step of 51 s")  # fmt: skip
+
+
 def test_a_dead_sensor_gets_no_numbers_and_says_why(tmp_path, capsys):
     flat = _loop_csv(tmp_path / "flat.csv", pv=np.full(1500, 3.5e-44))
     assert main(["quantify", "--json", str(flat)]) == 0
