@@ -30,10 +30,15 @@ from stiction.ident.report import diagnosis_report
 from stiction.ident.ties import DEADBAND_WIDENS_PCT
 from stiction.sim.extensions import CATALOGUE
 from stiction.sim.grid import EFFECT_RANGES, effect_loops
+from stiction.sim.independent import simulate_independent
 from stiction.sim.loop import DURATION_S, WARMUP_S, simulate
 from stiction.sim.valve import band_and_jump_pct
 
 SEED = 20261122
+SIMULATORS = {
+    "project": "the project's simulator (sim.loop)",
+    "independent": "the independent simulator (sim.independent: continuous time, written apart from sim.loop)",
+}
 
 
 def _truth(spec) -> list[float]:
@@ -42,11 +47,19 @@ def _truth(spec) -> list[float]:
     return [spec.fs_pct + widen, spec.fd_pct + widen]
 
 
-def _one(spec, samples: int | None = None) -> dict:
+def _record(spec, samples: int | None, simulator: str) -> Record:
+    """OP and PV of ``spec``'s loop from the named simulator (``SIMULATORS``)."""
+    if simulator == "independent":
+        r = simulate_independent(spec)
+        return Record(r.op, r.pv, r.ts_s)
+    r = simulate([spec]).kept() if samples is None else simulate([spec], duration_s=WARMUP_S + samples).kept()
+    return Record(r.op[0], r.pv[0], float(r.t_s[1] - r.t_s[0]))
+
+
+def _one(spec, samples: int | None = None, simulator: str = "project") -> dict:
     """One loop's diagnosis and what it got right; ``samples``: the record's length (default the canonical
     loop's 1,000 kept samples), the same loop simulated longer."""
-    r = simulate([spec]).kept() if samples is None else simulate([spec], duration_s=WARMUP_S + samples).kept()
-    rec = Record(r.op[0], r.pv[0], float(r.t_s[1] - r.t_s[0]))
+    rec = _record(spec, samples, simulator)
     started = time.process_time()
     d = diagnose(rec)
     seconds = time.process_time() - started
@@ -189,8 +202,10 @@ def bench_diagnose(
     draws: str = "catalogue",
     seed: int = SEED,
     samples: int | None = None,
+    simulator: str = "project",
 ) -> dict:
-    """``draws``: the magnitudes' ranges (``sim.grid.DRAWS``: the catalogue's, or ``wide``, as plants have them);
+    """``simulator``: which of ``SIMULATORS`` makes the loops (the same draws); ``draws``: the magnitudes'
+    ranges (``sim.grid.DRAWS``: the catalogue's, or ``wide``, as plants have them);
     ``seed``: where the loops are drawn from (each cause its own offset from it); ``samples``: each record's length
     (default 1,000: the canonical loop's kept samples; ``stiction diagnose`` reads up to 3,600 of an export)."""
     causes = causes or list(EFFECT_RANGES)
@@ -198,7 +213,7 @@ def bench_diagnose(
     with _pool(workers) as pool:
         for c in causes:
             specs = effect_loops(c, per_cause, seed + list(EFFECT_RANGES).index(c), draws=draws)
-            rows = list(pool.map(partial(_one, samples=samples), specs))
+            rows = list(pool.map(partial(_one, samples=samples, simulator=simulator), specs))
             out[c] = _summary(c, rows) | {"params": list(CATALOGUE.get(c, ())), "loops": [_loop_row(r) for r in rows]}
             if progress:
                 progress(c, out[c])
@@ -211,6 +226,7 @@ def bench_diagnose(
         "samples": samples or int(DURATION_S - WARMUP_S),
         "draws": draws,
         "seed": seed,
+        "simulator": simulator,
         "overall": {
             "named_share_effects": float(np.mean([out[c]["named_share"] for c in effects])) if effects else None,
             "cannot_tell_share_effects": float(np.mean([out[c]["cannot_tell_share"] for c in effects]))
@@ -299,12 +315,14 @@ def bench_retrained(per_cause: int, causes: list[str], models_root: Path, progre
     return out
 
 
-def print_header(per_cause: int, draws: str = "catalogue", seed: int = SEED, samples: int | None = None) -> None:
+def print_header(
+    per_cause: int, draws: str = "catalogue", seed: int = SEED, samples: int | None = None, simulator: str = "project"
+) -> None:
     ranges = "the catalogue's magnitudes" if draws == "catalogue" else "magnitudes drawn wide (WIDE_EFFECT_RANGES)"
     drawn = "" if seed == SEED else f", drawn from seed {seed}"
     length = f", {samples} samples a record" if samples else ""
     print(f"diagnose on {per_cause} generated loops per cause, {ranges} (noise 1-4 % of PV RMS, OP/PV only){drawn}"
-          f"{length}")  # fmt: skip
+          f"{length}, from {SIMULATORS[simulator]}")  # fmt: skip
     print(
         f"{'cause':22s} {'named':>7s} {'or tie':>7s} {'param':>6s} {'range':>6s} {'gain>0':>7s} {'fs/fd pp':>8s} "
         f"{'':>8s} {'read':>7s} {'in 2se':>6s} {'s/loop':>6s}"

@@ -118,6 +118,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="each record's length in samples (default 1000; stiction diagnose reads up to 3600 of an export): "
         "the same loops simulated longer, for the time a long record takes",
     )
+    d.add_argument(
+        "--simulator",
+        choices=("project", "independent"),
+        default="project",
+        help="the loops from the project's simulator (sim.loop, the one the fit was built beside), or from a second "
+        "implementation of the spec's loop and catalogue written apart from it (sim.independent: continuous time, "
+        "solve_ivp; a few seconds a loop)",
+    )
     d.add_argument("--json", action="store_true")
     m = sub.add_parser("measured", help="diagnose every export of the measured folders beside their labels")
     m.add_argument("folders", nargs="+", type=Path, metavar="DIR", help="folders of exports (or single files)")
@@ -242,13 +250,17 @@ def _diagnose(args) -> None:
         raise InputError("--loops and --workers must be at least 1")
     if args.samples is not None and args.samples < 200:
         raise InputError(f"--samples {args.samples}: at least 200 (a record a diagnosis can read)")
+    if args.samples is not None and args.simulator == "independent":
+        raise InputError("--samples: the independent simulator keeps the spec's 1,000 samples")
+    if args.retrain and args.simulator == "independent":
+        raise InputError("--retrain: with the project's simulator only")
     text = not args.json
     seed = diagnose.SEED if args.seed is None else args.seed
     if text:
-        diagnose.print_header(args.loops, args.draws, seed, args.samples)
+        diagnose.print_header(args.loops, args.draws, seed, args.samples, args.simulator)
     progress = diagnose.print_row if text else None
     figures = diagnose.bench_diagnose(args.loops, causes, args.workers, progress=progress, draws=args.draws, seed=seed,
-                                      samples=args.samples)  # fmt: skip
+                                      samples=args.samples, simulator=args.simulator)  # fmt: skip
     if args.retrain:
         if text:
             diagnose.print_retrained_header()
