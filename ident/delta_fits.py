@@ -64,7 +64,7 @@ def _regressors_at(coef, at, breaks, m, k, n, slip_share, snapshot, out):
     for row in range(4):
         out[row] = coef[piece, row]
     if not snapshot and piece > 0 and at[piece - 1] == k and 0 < k < n:
-        share = breaks[piece - 1] + slip_share
+        share = abs(breaks[piece - 1]) + slip_share
         for row in range(4):
             out[row] -= share * (coef[piece, row] - coef[piece - 1, row])
 

@@ -48,6 +48,7 @@ from stiction.ident.valve_model import (
     time_share,
     valve_from_fit,
 )
+from stiction.sim.valve import VALVE, slide_speed_pct_s
 
 
 def walk(
@@ -71,12 +72,16 @@ def walk(
     on after a slip and breaks the stem away again a few samples later (the simulator's stair,
     ``sim.valve.lagged_valve_step``); PV reads the stair as one step, and the stem set at its end
     at the first slip made no second one (``stiction bench diagnose --draws wide``: 6 of 8 lags
-    named on the bench's seed, 8 of 8 after).
+    named on the bench's seed, 8 of 8 after).  A stem that breaks away behind a lagged drive still faster
+    than its slide speed (``sim.valve.slide_speed_pct_s`` of the candidate's Fs - Fc) slides along it,
+    ``stop`` behind, until the drive slows to that speed, as the spec's valve does (``sim.independent``).
     Compiled (``ident.kernels``); ``tests/ident/walk_reference.py`` is the plain transcription.
     """
     if np.any(np.diff(read.at) < 0):
         raise ValueError("read slips out of time order")
-    counts, at, dirs, brk, land, forced = kernels.walk(
+    band, stop = np.asarray(band, float), np.asarray(stop, float)
+    slide = np.broadcast_to(slide_speed_pct_s(VALVE.lbf_per_pct * (band - stop)) * drive.ts_s, band.shape)
+    counts, at, dirs, brk, land, forced, offs = kernels.walk(
         drive.start,
         drive.end,
         drive.mean,
@@ -90,15 +95,19 @@ def walk(
         np.asarray(stop, float),
         np.asarray(level0, float),
         int(window),
+        np.ascontiguousarray(slide, dtype=float),
     )
-    return [Slips(at[c, :m], dirs[c, :m], brk[c, :m], land[c, :m], forced[c, :m]) for c, m in enumerate(counts)]
+    return [Slips(at[c, :m], dirs[c, :m], brk[c, :m], land[c, :m], forced[c, :m], offs[c, :m])
+            for c, m in enumerate(counts)]  # fmt: skip
 
 
 def _as_slips(ev: list[tuple]) -> Slips:
     if not ev:
         return Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
-    at, dirs, brk, land, rd = (np.array(x) for x in zip(*ev, strict=True))
-    return Slips(at.astype(int), dirs.astype(int), brk.astype(float), land.astype(float), rd.astype(bool))
+    ev = [e if len(e) == 6 else (*e, 0.0) for e in ev]
+    at, dirs, brk, land, rd, off = (np.array(x) for x in zip(*ev, strict=True))
+    return Slips(at.astype(int), dirs.astype(int), brk.astype(float), land.astype(float), rd.astype(bool),
+                 off.astype(float))  # fmt: skip
 
 
 def _breaks(drive: Drive, k: int, level: np.ndarray, d: np.ndarray, band: np.ndarray):

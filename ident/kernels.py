@@ -55,8 +55,12 @@ def _wider(x, cap):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window):
-    """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events."""
+def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window,
+         slide):  # fmt: skip
+    """Per candidate: its slips (see ``ident.fit.walk``).  Returns counts [C] and [C, N] arrays of events.
+    ``slide`` [C]: the drive's speed (% of OP an interval) above which the candidate's stem slides along with
+    it; a slide's samples are slips at a held landing whose break is minus the share of the interval that
+    reads the old level (``ident.valve_model.path_regressors``)."""
     n_cand, n, n_read = band.size, end.size, read_at.size
     anchor = np.full(n, -1, np.int64)
     for j in range(n_read):
@@ -68,23 +72,65 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
     # length were megabytes a call; growing them inside the loop over samples made the loop twice as slow):
     # 1.7-2.5 ms a call of 40 candidates on 3,600 samples, against 2.4-3.5 ms with outputs of the record's length
     b_at, b_dirs = np.empty(n, np.int64), np.empty(n, np.int64)
-    b_brk, b_land, b_forced = np.empty(n), np.empty(n), np.empty(n, np.bool_)
+    b_brk, b_land, b_forced, b_off = np.empty(n), np.empty(n), np.empty(n, np.bool_), np.empty(n)
     cap = min(n, 2 * n_read + 16)
     at = np.zeros((n_cand, cap), np.int64)
     dirs = np.zeros((n_cand, cap), np.int64)
     brk = np.zeros((n_cand, cap))
     land = np.zeros((n_cand, cap))
     forced = np.zeros((n_cand, cap), np.bool_)
+    offs = np.zeros((n_cand, cap))
+    can_slide = moves and 0.0 < decay < 1.0
+    tau = -1.0 / math.log(decay) if can_slide else 0.0  # the lag in intervals
     for c in range(n_cand):
         level = level0[c]
         used = np.zeros(n_read, np.bool_)
         m = 0
+        sliding, slide_d = False, 0
         for k in range(1, n):
+            if sliding:
+                # carried along by a drive still faster than the slide speed, its way: a held landing a sample
+                s0, e0 = start[k], end[k]
+                op = (e0 - decay * s0) / (1.0 - decay)
+                rate = abs(op - s0) / tau
+                if (op - s0) * slide_d > 0 and rate > slide[c]:
+                    j = anchor[k]
+                    if j >= 0 and not used[j] and read_dir[j] == slide_d:
+                        used[j] = True  # a slip the data read inside the slide is the slide's
+                    t_c = tau * math.log(rate / slide[c])
+                    if t_c >= 1.0:
+                        stem_at, share = e0, (e0 - mean[k]) / (e0 - s0)
+                    else:  # it sticks where the drive slows to the slide speed
+                        stem_at = op + (s0 - op) * math.exp(-t_c / tau)
+                        area = op * t_c + (s0 - op) * tau * (1.0 - math.exp(-t_c / tau)) + (1.0 - t_c) * stem_at
+                        share = (stem_at - area) / (stem_at - s0)
+                        sliding = False
+                    b_at[m], b_dirs[m], b_brk[m], b_land[m], b_forced[m] = k, slide_d, -share, stem_at, False
+                    b_off[m] = 0.0
+                    m += 1
+                    level = stem_at - slide_d * stop[c]
+                    continue
+                sliding = False
             gap = end[k] - level
             if abs(gap) > band[c]:
                 d = 1 if gap > 0 else -1
                 f, p = _break(start, end, mean, moves, decay, k, level, d, band[c])
-                b_at[m], b_dirs[m], b_brk[m], b_land[m], b_forced[m] = k, d, f, p, False
+                slid = False
+                off = 0.0
+                if can_slide:
+                    op = (end[k] - decay * start[k]) / (1.0 - decay)
+                    rate = abs(op - p) / tau
+                    if (op - start[k]) * d > 0 and rate > slide[c]:
+                        # it slides on from the break: to the interval's end, or to where the drive slows;
+                        # the flow follows the drive there, the landing's level only after
+                        slid = True
+                        t_e = min(f + tau * math.log(rate / slide[c]), 1.0)
+                        p = op + (start[k] - op) * math.exp(-t_e / tau) if t_e < 1.0 else end[k]
+                        sliding, slide_d = t_e >= 1.0, d
+                        along = op * (t_e - f) + (start[k] - op) * tau * (math.exp(-f / tau) - math.exp(-t_e / tau))
+                        off = along - (t_e - f) * p
+                b_at[m], b_dirs[m], b_brk[m], b_land[m], b_forced[m] = k, d, (-f if slid else f), p, False
+                b_off[m] = off
                 m += 1
                 level = p - d * stop[c]
                 best, best_dist = -1, window + 1
@@ -101,7 +147,7 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
                     # long lag the drive breaks a stem away again and again as it creeps on (a stair of
                     # slips a few samples apart), which PV reads as one step; set at the stair's end at its
                     # first slip, the stem slipped no more (``ident.fit.walk``)
-                    if use_levels and d * (read_levels[best] - level) < 0:
+                    if use_levels and not slid and d * (read_levels[best] - level) < 0:
                         level = read_levels[best]
                 continue
             j = anchor[k]
@@ -116,6 +162,7 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
                 if soon:
                     continue
                 b_at[m], b_dirs[m], b_brk[m], b_land[m], b_forced[m] = k, d, 0.0, mean[k], True
+                b_off[m] = 0.0
                 m += 1
                 used[j] = True
                 level = read_levels[j] if use_levels else mean[k] - d * stop[c]
@@ -123,10 +170,12 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
             cap = min(n, max(m, 2 * cap))
             at, dirs, brk, land, forced = (_wider(at, cap), _wider(dirs, cap), _wider(brk, cap), _wider(land, cap),
                                            _wider(forced, cap))  # fmt: skip
+            offs = _wider(offs, cap)
         at[c, :m], dirs[c, :m], brk[c, :m], land[c, :m], forced[c, :m] = (b_at[:m], b_dirs[:m], b_brk[:m],
                                                                           b_land[:m], b_forced[:m])  # fmt: skip
+        offs[c, :m] = b_off[:m]
         counts[c] = m
-    return counts, at, dirs, brk, land, forced
+    return counts, at, dirs, brk, land, forced, offs
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -377,12 +426,12 @@ def piece_coefficients(at, d, breaks, landing, m, coef):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
+def path_regressors(at, d, breaks, landing, offset, counts, n, slip_share, snapshot):
     """[V, 4, n] regressors of each slip set (rows ``at``, ``d``, ``breaks``, ``landing`` [V, M], the
     first ``counts[v]`` real, ``at`` increasing), as ``ident.valve_model.path_regressors_many`` says:
     a piece per slip (``piece_coefficients``); then each slip's interval, the old position until the break,
     less the slip's ``slip_share`` of the interval (last slip first: each reads its predecessor's sample
-    unchanged)."""
+    unchanged), plus the slip's known ``offset`` in the drive's row (a stem sliding on after its break)."""
     v_count = at.shape[0]
     out = np.zeros((v_count, 4, n))
     coef = np.empty((at.shape[1] + 1, 4))
@@ -400,9 +449,10 @@ def path_regressors(at, d, breaks, landing, counts, n, slip_share, snapshot):
         for j in range(m - 1, -1, -1):
             k = at[v, j]
             if 0 < k < n:
-                share = breaks[v, j] + slip_share
+                share = abs(breaks[v, j]) + slip_share
                 for row in range(4):
                     out[v, row, k] -= share * (out[v, row, k] - out[v, row, k - 1])
+                out[v, 0, k] += offset[v, j]
     return out
 
 

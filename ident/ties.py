@@ -115,8 +115,11 @@ def lag_s_sd_pct(chosen: Model, slope: float | None) -> float:
 def lag_widened(read: Friction, s_sd_pct: float) -> Friction:
     """``read`` with the actuator lag's own uncertainty carried along the line on which lag and band trade
     (``lag_band_tie``): ``s_sd_pct`` (``lag_s_sd_pct``: the lag's standard deviation, its range's log half-width
-    over ``RANGE_SDS`` times the lag, times the line's slope) added in quadrature to S's error, and half of it (in %
-    of 500 lbf) to fs's and fd's (band and stop each move half of S); J does not move along the line.
+    over ``RANGE_SDS`` times the lag, times the line's slope) added in quadrature to S's error, all of it to J's, all
+    of it (in % of 500 lbf) to fs's and half to fd's.  While the fit's stem jumped from landing to landing behind a
+    lagged drive, band and stop each moved half of S and J stood still; since it slides along the drive (the
+    spec's valve, 2026-11-27) the slides pin the stop and the band's breaks carry the lag's doubt (on the lag loop
+    of ``tests/ident/test_diagnose.py`` the band read 0.35 % short, the stop 0.08 % long): J moves with S.
 
     The errors of a fit at one lag do not see the lag's doubt: on the 8 actuator lags of seed 9191's wide draws
     (``stiction bench diagnose``), lags read 0.4-2.1 times the truth, S read within two of its errors held the
@@ -125,12 +128,13 @@ def lag_widened(read: Friction, s_sd_pct: float) -> Friction:
     error in median 2.9 and 2.3 times what it was (docs/benchmarks.md)."""
     if not (s_sd_pct > 0 and np.isfinite(read.s_pct)):
         return read
-    side = PCT_OF_500LBF_PER_PCT_OF_SPAN * s_sd_pct / 2
+    side = PCT_OF_500LBF_PER_PCT_OF_SPAN * s_sd_pct
     return replace(
         read,
         s_se_pct=float(np.hypot(read.s_se_pct, s_sd_pct)),
+        j_se_pct=float(np.hypot(read.j_se_pct, s_sd_pct)),
         fs_se_pct=float(np.hypot(read.fs_se_pct, side)),
-        fd_se_pct=float(np.hypot(read.fd_se_pct, side)),
+        fd_se_pct=float(np.hypot(read.fd_se_pct, side / 2)),
     )
 
 

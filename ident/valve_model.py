@@ -47,6 +47,8 @@ class Drive:
     """Whether the drive moves within an interval (else it steps at the sample instants)."""
     decay: float = 0.0
     """``e^(-Ts/tau)``: the share of the gap to OP left at an interval's end (0: the drive steps)."""
+    ts_s: float = 1.0
+    """The sample time (the slide speed is per second)."""
 
 
 def time_share(travel_share, decay: float):
@@ -71,7 +73,7 @@ def drive_of(op_pct: np.ndarray, actuator_tau_s: float, ts_s: float) -> Drive:
         end[k] = d
     start = np.concatenate([[op_pct[0]], end[:-1]])
     mean = op_pct + (start - op_pct) * actuator_tau_s / ts_s * (1 - decay)
-    return Drive(start, end, mean, True, float(decay))
+    return Drive(start, end, mean, True, float(decay), float(ts_s))
 
 
 @dataclass(frozen=True)
@@ -81,11 +83,20 @@ class Slips:
     at: np.ndarray
     directions: np.ndarray
     breaks: np.ndarray
-    """Fraction of the interval before the break (0: at the sample instant)."""
+    """Fraction of the interval before the break (0: at the sample instant); negative for a stem that slides
+    along a lagged drive (``ident.fit.walk``): it lands ``stop`` short of ``landing_drive`` as a held slip does,
+    and minus this is the share of the interval that reads the old level."""
     landing_drive: np.ndarray
     """The drive when the stem broke away: it lands ``stop`` short of it."""
     read: np.ndarray
     """True where the data's segmentation found the slip, False where the valve model added it."""
+    drive_offset: np.ndarray | None = None
+    """Added to the slip's interval's flow (% of OP, known, the drive row): a stem that breaks away and slides
+    on follows the drive, not its landing, for the rest of that interval.  Zeros where not given."""
+
+    def __post_init__(self):
+        if self.drive_offset is None:
+            object.__setattr__(self, "drive_offset", np.zeros(np.shape(self.at)))
 
     @classmethod
     def from_path(cls, path: StemPath, drive: Drive) -> Slips:
@@ -148,11 +159,13 @@ def path_regressors_many(many: list[Slips], n: int, ts_s: float, snapshot: bool 
     v_count, m = len(many), max((s.at.size for s in many), default=0)
     at = np.full((v_count, m), n, np.int64)
     d, breaks, landing = np.zeros((v_count, m)), np.zeros((v_count, m)), np.zeros((v_count, m))
+    offset = np.zeros((v_count, m))
     counts = np.zeros(v_count, np.int64)
     for v, s in enumerate(many):
         k = counts[v] = s.at.size
         at[v, :k], d[v, :k], breaks[v, :k], landing[v, :k] = s.at, s.directions, s.breaks, s.landing_drive
-    return kernels.path_regressors(at, d, breaks, landing, counts, int(n), SLIP_S / ts_s, bool(snapshot))
+        offset[v, :k] = s.drive_offset
+    return kernels.path_regressors(at, d, breaks, landing, offset, counts, int(n), SLIP_S / ts_s, bool(snapshot))
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,8 @@ def subset(friction: Friction, idx) -> Friction:
         x = np.asarray(x)
         return x[idx] if x.ndim else x
 
-    return Friction(pick(friction.fs_lbf), pick(friction.stop_lbf), pick(friction.slip_s), pick(friction.lbf_per_pct))
+    return Friction(pick(friction.fs_lbf), pick(friction.stop_lbf), pick(friction.slip_s), pick(friction.lbf_per_pct),
+                    pick(friction.slide_pct_s))  # fmt: skip
 
 
 def actuate(

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from stiction.sim.valve import SLIDING_TOL_PCT
+
 
 @njit(cache=True, error_model="numpy")
 def _nan_to_num(x, nan):
@@ -32,40 +34,51 @@ def _clip(x, lo, hi):
 
 
 @njit(cache=True, error_model="numpy")
-def _lagged_step(p0, op, tau_s, ts_s, mv, fs_lbf, stop_lbf, slip_s, lbf_per_pct):
+def _lagged_step(p0, op, tau_s, ts_s, mv, fs_lbf, stop_lbf, slip_s, lbf_per_pct, slide):
     """``sim.valve.lagged_valve_step`` for one valve: ``(mv_end, deficit, p_end)``."""
     decay = np.exp(-ts_s / tau_s)
     p_end = op + (p0 - op) * decay
     d = np.sign(op - p0)
+    d_drive = d
     band = fs_lbf / lbf_per_pct
     stop = stop_lbf / lbf_per_pct
     step = max(band - stop, 1e-9)
+    rate0 = abs(op - p0) / tau_s
+    carried = d != 0 and abs(d * (p0 - mv) - stop) <= SLIDING_TOL_PCT and rate0 > slide
     p_break = mv + d * band
-    already = abs(p0 - mv) > band
+    already = abs(p0 - mv) > band or carried
     slipped = already or (d * (p_end - p_break) > 0)
     t_break = 0.0 if already else tau_s * np.log((op - p0) / (op - p_break))
     t_break = _clip(_nan_to_num(t_break, 0.0), 0.0, ts_s) if slipped else ts_s
     p_at_break = p0 if already else p_break
-    if already:
+    if already and not carried:
         d = np.sign(p0 - mv)
-    mv_first = p_at_break - d * stop
-    n_more = np.floor(max(d * (p_end - p_at_break), 0.0) / step) if slipped else 0.0
+    t_slide = t_break
+    if slipped and d == d_drive and rate0 > slide:
+        t_slide = _clip(_nan_to_num(tau_s * np.log(rate0 / slide), 0.0), t_break, ts_s)
+    p_slid = op + (p0 - op) * np.exp(-t_slide / tau_s) if t_slide > t_break else p_at_break
+    mv_first = p_slid - d * stop
+    n_more = np.floor(max(d * (p_end - p_slid), 0.0) / step) if slipped else 0.0
     mv_end = mv_first + d * n_more * step if slipped else mv
-    t_last = tau_s * np.log((op - p0) / (op - (p_at_break + d * n_more * step))) if n_more > 0 else t_break
-    t_last = _clip(_nan_to_num(t_last, ts_s), t_break, ts_s)
+    t_last = tau_s * np.log((op - p0) / (op - (p_slid + d * n_more * step))) if n_more > 0 else t_slide
+    t_last = _clip(_nan_to_num(t_last, ts_s), t_slide, ts_s)
+    slid = 0.0
+    if t_slide > t_break:
+        rise = op * (t_slide - t_break) + (p0 - op) * tau_s * (np.exp(-t_break / tau_s) - np.exp(-t_slide / tau_s))
+        slid = rise - d * stop * (t_slide - t_break)
     if n_more > 0:
-        rise = op * (t_last - t_break) + (p0 - op) * tau_s * (np.exp(-t_break / tau_s) - np.exp(-t_last / tau_s))
-        stair = rise - (d * stop + d * step / 2) * (t_last - t_break)
+        rise = op * (t_last - t_slide) + (p0 - op) * tau_s * (np.exp(-t_slide / tau_s) - np.exp(-t_last / tau_s))
+        stair = rise - (d * stop + d * step / 2) * (t_last - t_slide)
     else:
-        stair = mv_first * (t_last - t_break)
-    integral = mv * t_break + stair + mv_end * (ts_s - t_last)
+        stair = mv_first * (t_last - t_slide)
+    integral = mv * t_break + slid + stair + mv_end * (ts_s - t_last)
     deficit = (mv_end * ts_s - integral if slipped else 0.0) + (mv_end - mv) * slip_s
     return mv_end, deficit, p_end
 
 
 @njit(cache=True, error_model="numpy")
 def run_loops(
-    kc, ti_s, sp, fs_lbf, stop_lbf, slip_s, lbf_per_pct, phi, gamma_now, gamma_prev, gamma_w, c, delay,
+    kc, ti_s, sp, fs_lbf, stop_lbf, slip_s, lbf_per_pct, slide_pct_s, phi, gamma_now, gamma_prev, gamma_w, c, delay,
     deadband_pct, actuator_tau_s, w, z, ts_s, x, error_sum, mv, drive, played, flow_hist, k0,
 ):  # fmt: skip
     """Every loop over every sample from the given state (updated in place, as at the end).
@@ -96,7 +109,8 @@ def run_loops(
             target = pl if deadband_pct[i] > 0 else op
             if actuator_tau_s[i] > 0:
                 stem_next, deficit, dr = _lagged_step(
-                    dr, target, actuator_tau_s[i], ts_s, stem, fs_lbf[i], stop_lbf[i], slip_s[i], lbf_per_pct[i]
+                    dr, target, actuator_tau_s[i], ts_s, stem, fs_lbf[i], stop_lbf[i], slip_s[i], lbf_per_pct[i],
+                    slide_pct_s[i],
                 )
             else:
                 force = lbf_per_pct[i] * (target - stem)

@@ -140,6 +140,7 @@ def _friction(specs: Sequence[LoopSpec]) -> Friction:
         pick(physical.stop_lbf, he.stop_lbf),
         pick(physical.slip_s, he.slip_s),
         pick(physical.lbf_per_pct, he.lbf_per_pct),
+        pick(physical.slide_pct_s, he.slide_pct_s),
     )
 
 
@@ -278,7 +279,7 @@ def run_batch(
 
     return run_loops(
         read(batch.kc), read(batch.ti_s), read(batch.sp),
-        per_loop(f.fs_lbf), per_loop(f.stop_lbf), per_loop(f.slip_s), per_loop(f.lbf_per_pct),
+        per_loop(f.fs_lbf), per_loop(f.stop_lbf), per_loop(f.slip_s), per_loop(f.lbf_per_pct), per_loop(f.slide_pct_s),
         read(batch.phi), read(batch.gamma_now), read(batch.gamma_prev), read(batch.gamma_w), read(batch.c),
         read(batch.delay, np.int64), read(batch.deadband_pct), read(batch.actuator_tau_s),
         read(w), read(z), float(ts_s),

@@ -162,6 +162,28 @@ def _stop_residual_table(valve: ValveConstants) -> tuple[np.ndarray, np.ndarray]
     return gap, r
 
 
+def slide_speed_pct_s(gap_lbf, valve: ValveConstants = VALVE) -> np.ndarray:
+    """The drive's speed (% of OP a second) above which a moving stem slides along with it, for ``Fs - Fc =
+    gap_lbf``: where the friction's fall with speed (Stribeck's term) no longer outruns its viscous rise,
+    ``2 gap V / vs^2 exp(-(V/vs)^2) = Fv`` on the falling side (V > vs / sqrt 2); below it steady sliding is
+    unstable and the stem sticks.  Checked against the spec's ODE (``sim.independent``, ``tests/sim``): a stem
+    behind a decelerating drive sticks within 0.2 s of it.  0 where the gap is too small for any instability."""
+    gap = np.maximum(np.asarray(gap_lbf, dtype=float), 1e-300)
+    vs = valve.stribeck_in_per_s
+    target = valve.viscous_lbf_s_per_in * vs / (2 * gap)  # u exp(-u^2) at the root, u = V / vs
+    lo, hi = np.full(gap.shape, np.sqrt(0.5)), np.full(gap.shape, 8.0)
+    for _ in range(60):  # bisection on the falling side, where u exp(-u^2) decreases
+        mid = 0.5 * (lo + hi)
+        above = mid * np.exp(-(mid**2)) > target
+        lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
+    u = np.where(target < np.sqrt(0.5) * np.exp(-0.5), 0.5 * (lo + hi), 0.0)
+    return u * vs / valve.in_per_pct_mv
+
+
+SLIDING_TOL_PCT = 1e-9
+"""A stem this close to ``stop`` behind its drive ended the last interval sliding (it lands exactly there)."""
+
+
 def stop_residual_in(gap_lbf, valve: ValveConstants = VALVE) -> np.ndarray:
     """Stop residual [in] for ``Fs - Fc = gap_lbf``; never more than the gap allows (k r < Fs - Fc)."""
     gap_tab, r_tab = _stop_residual_table(valve)
@@ -194,12 +216,18 @@ class Friction:
     stop_lbf: np.ndarray
     slip_s: float
     lbf_per_pct: float
+    slide_pct_s: np.ndarray | float = np.inf
+    """A stem that breaks away behind a drive moving faster than this (% of OP a second: an actuator's lag
+    moves it continuously) slides along with it instead of sticking again (``slide_speed_pct_s``); He's
+    model has no such speed."""
 
     @classmethod
     def physical(cls, fs_lbf, fd_lbf, valve: ValveConstants = VALVE) -> Friction:
         fs, fd = np.asarray(fs_lbf, float), np.asarray(fd_lbf, float)
         residual_lbf = valve.spring_lbf_per_in * stop_residual_in(fs - fd, valve)
-        return cls(fs, fd + residual_lbf, valve.viscous_lbf_s_per_in / valve.spring_lbf_per_in, valve.lbf_per_pct)
+        # the slide speed from Fs - stop, which a fit reads (band less stop), not Fs - Fc: under 0.1 lbf apart
+        return cls(fs, fd + residual_lbf, valve.viscous_lbf_s_per_in / valve.spring_lbf_per_in, valve.lbf_per_pct,
+                   slide_speed_pct_s(fs - fd - residual_lbf, valve))  # fmt: skip
 
     @classmethod
     def he(cls, fs_op_pct, fd_op_pct) -> Friction:
@@ -227,9 +255,12 @@ def valve_step(drive_pct, mv_pct, friction: Friction) -> Slip:
 def lagged_valve_step(drive_pct, op_pct, tau_s, ts_s, mv_pct, friction: Friction):
     """One interval in which the drive relaxes towards OP: ``P(t) = OP + (P0 - OP) e^(-t/tau)``.
 
-    The drive moves monotonically, so the first breakaway time is closed-form; after
-    it, each further travel of ``(Fs - stop)/12`` breaks the stem away again.  The
-    stair that follows is integrated as its mean line (exact at the stair's ends).
+    The drive moves monotonically, so the first breakaway time is closed-form.  A stem that breaks away while
+    the drive moves faster than ``friction.slide_pct_s`` does not stick again: it slides along ``stop`` behind
+    the drive until the drive slows to that speed (``t_c = tau ln(rate / slide)``), as the spec's ODE does
+    (``sim.independent``); a stem that ended the last interval so, and whose drive still moves that fast the
+    same way, slides on from the start.  After that each further travel of ``(Fs - stop)/12`` breaks the stem
+    away again; the stair that follows is integrated as its mean line (exact at the stair's ends).
     Returns ``(Slip, drive_end_pct)``.
     """
     tau_s = np.asarray(tau_s, float)
@@ -240,33 +271,43 @@ def lagged_valve_step(drive_pct, op_pct, tau_s, ts_s, mv_pct, friction: Friction
     band_pct = friction.fs_lbf / friction.lbf_per_pct
     stop_pct = friction.stop_lbf / friction.lbf_per_pct
     step_pct = np.maximum(band_pct - stop_pct, 1e-9)
+    rate0 = np.abs(op - p0) / tau_s
+    carried = (d != 0) & (np.abs(d * (p0 - mv_pct) - stop_pct) <= SLIDING_TOL_PCT) & (rate0 > friction.slide_pct_s)
     p_break = mv_pct + d * band_pct
-    already = np.abs(p0 - mv_pct) > band_pct
+    already = (np.abs(p0 - mv_pct) > band_pct) | carried
     slipped = already | (d * (p_end - p_break) > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         t_break = np.where(already, 0.0, tau_s * np.log((op - p0) / (op - p_break)))
     t_break = np.where(slipped, np.clip(np.nan_to_num(t_break), 0.0, ts_s), ts_s)
+    d_drive = d
+    d = np.where(already & ~carried, np.sign(p0 - mv_pct), d)
+    # after the break the stem slides while the drive, moving its way, is faster than the slide speed
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_slow = np.where((d == d_drive) & (rate0 > friction.slide_pct_s),
+                          tau_s * np.log(rate0 / friction.slide_pct_s), 0.0)  # fmt: skip
+    t_slide = np.where(slipped, np.clip(np.nan_to_num(t_slow), t_break, ts_s), t_break)
     p_at_break = np.where(already, p0, p_break)
-    d = np.where(already, np.sign(p0 - mv_pct), d)
-    mv_first = p_at_break - d * stop_pct
-    n_more = np.where(slipped, np.floor(np.maximum(d * (p_end - p_at_break), 0.0) / step_pct), 0.0)
+    p_slid = np.where(t_slide > t_break, op + (p0 - op) * np.exp(-t_slide / tau_s), p_at_break)
+    mv_first = p_slid - d * stop_pct
+    n_more = np.where(slipped, np.floor(np.maximum(d * (p_end - p_slid), 0.0) / step_pct), 0.0)
     mv_end = np.where(slipped, mv_first + d * n_more * step_pct, mv_pct)
 
     # integral of MV over the interval
     with np.errstate(divide="ignore", invalid="ignore"):
         t_last = np.where(
             n_more > 0,
-            tau_s * np.log((op - p0) / (op - (p_at_break + d * n_more * step_pct))),
-            t_break,
+            tau_s * np.log((op - p0) / (op - (p_slid + d * n_more * step_pct))),
+            t_slide,
         )
-    t_last = np.clip(np.nan_to_num(t_last, nan=ts_s), t_break, ts_s)
+    t_last = np.clip(np.nan_to_num(t_last, nan=ts_s), t_slide, ts_s)
 
     def drive_integral(t1, t2):
         return op * (t2 - t1) + (p0 - op) * tau_s * (np.exp(-t1 / tau_s) - np.exp(-t2 / tau_s))
 
-    stair = drive_integral(t_break, t_last) - (d * stop_pct + d * step_pct / 2) * (t_last - t_break)
-    stair = np.where(n_more > 0, stair, mv_first * (t_last - t_break))
-    integral = mv_pct * t_break + stair + mv_end * (ts_s - t_last)
+    slide = drive_integral(t_break, t_slide) - d * stop_pct * (t_slide - t_break)
+    stair = drive_integral(t_slide, t_last) - (d * stop_pct + d * step_pct / 2) * (t_last - t_slide)
+    stair = np.where(n_more > 0, stair, mv_first * (t_last - t_slide))
+    integral = mv_pct * t_break + slide + stair + mv_end * (ts_s - t_last)
     # a slip withholds Fv/k seconds of flow per % of its travel, in its own direction (as ``valve_step``)
     deficit = np.where(slipped, mv_end * ts_s - integral, 0.0) + (mv_end - mv_pct) * friction.slip_s
     return Slip(mv_pct=mv_end, deficit_pct_s=deficit, slipped=slipped), p_end

@@ -38,21 +38,7 @@ def _record(ext: Extensions, fs: float, fd: float, seed: int = 3, noise: float =
     return Record(r.op[0], r.pv[0], 1.0)
 
 
-LAG_AGAINST_BAND = pytest.mark.xfail(
-    strict=True,
-    reason="known (issue 25, item 3): on this loop a lag of 3.5 s reads as 7.4 s with fs 27 and fd 0.6 (the fit's "
-    "errors 0.14, 0.23) instead of 41 and 14 (criterion 16 better): a longer lag and "
-    "a narrower band explain PV as well (docs/benchmarks.md, the lag and the band as one finding).  Unchanged by the "
-    "observer's fix of 2026-11-26.  The simulator's lagged slip withheld its flow the wrong way on downward slips "
-    "until 2026-11-24, and this loop passed on that.  The report's lag line reads S at the true lag within a quarter "
-    "(test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_trade), and fs and fd now with errors "
-    "of 18 that hold the truth (test_an_actuator_lags_doubt_widens_s_and_not_j).",
-)
-
-
-@pytest.mark.parametrize(
-    "cause", [pytest.param(c, marks=LAG_AGAINST_BAND) if c == "actuator_lag" else c for c in HIDDEN]
-)
+@pytest.mark.parametrize("cause", list(HIDDEN))
 def test_the_hidden_cause_is_named_with_its_parameter(cause):
     ext, fs, fd = HIDDEN[cause]
     record = _record(ext, fs, fd)
@@ -73,42 +59,41 @@ def test_the_hidden_cause_is_named_with_its_parameter(cause):
 
 
 def test_the_report_gives_the_line_along_which_an_actuators_lag_and_the_band_trade():
-    """The known loop above: a lag of 3.5 s read as 7.4 s, and S read half the true one.  The report's line (S at
-    no lag, less twice OP's ramp rate while the valve sticks times the lag) gives S at the true lag within a
-    quarter, less than half as far off as the S read."""
+    """The lag loop above.  Until the fit's valve slid along a lagged drive (2026-11-27) its lag of 3.5 s read as
+    7.4 s and S as half the truth; now both read right.  The report's line (S at no lag, less twice OP's ramp rate
+    while the valve sticks times the lag) passes through the reading and gives S at the true lag within a quarter,
+    and the lag's range (about 95 %) holds the true lag."""
     ext, fs, fd = HIDDEN["actuator_lag"]
     record = _record(ext, fs, fd)
     d = diagnose(record)
     s_true = float(band_and_jump_pct(fs, fd)[0])
-    assert abs(d.friction.s_pct - s_true) > 0.4 * s_true  # the lag misread: S off by almost half
     (tie,) = [t for t in d.ties if is_lag_line(t)]
     assert tie.delta_criterion is None  # the record's limit, not a fit's tie
     s0, slope = tie.parameters["s_pct_at_no_lag"], tie.parameters["s_pct_per_lag_s"]
+    assert slope > 0
     at_truth = s0 - slope * ext.actuator_tau_s
     assert at_truth == pytest.approx(s_true, rel=0.25)
-    assert abs(at_truth - s_true) < 0.5 * abs(d.friction.s_pct - s_true)
     at_read = s0 - slope * d.extended.hypothesis.actuator_tau_s
     assert at_read == pytest.approx(d.friction.s_pct)  # the line passes through the reading
-    # the lag read twice too long, and its range (about 95 %) says so: it holds the true lag
     lo, hi = d.parameter_ranges(record.ts_s)["actuator_tau_s"]
-    assert d.extended.hypothesis.actuator_tau_s > 1.5 * ext.actuator_tau_s and lo <= ext.actuator_tau_s <= hi
+    assert lo <= ext.actuator_tau_s <= hi
     # no actuator lag, no line
     plain = diagnose(_record(Extensions(), fs, fd))
     assert not [t for t in plain.ties if t.alternative == "actuator_lag"]
 
 
 def test_an_actuator_lags_doubt_widens_s_and_not_j():
-    """The known loop above: S read about half the truth.  Its error, the lag's own doubt carried along the line
-    (``ident.ties.lag_widened``), now holds the truth within two, and fs's and fd's too; J, which the line does
-    not move, keeps the fit's error and holds the truth as it did.  Without a lag nothing is widened."""
+    """The lag loop above: S's error carries the lag's own doubt along the line (``ident.ties.lag_widened``) and
+    holds the truth within two, and fs's and fd's too; and J's, which the lag now moves with the band (the stem
+    slides along the lagged drive: the slides pin the stop).  Without a lag nothing is widened."""
     ext, fs, fd = HIDDEN["actuator_lag"]
     record = _record(ext, fs, fd)
     d = diagnose(record)
     f = d.friction
     s_true, j_true = (float(v) for v in band_and_jump_pct(fs, fd))
-    assert abs(f.s_pct - s_true) > 0.4 * s_true and abs(f.s_pct - s_true) <= 2 * f.s_se_pct
+    assert abs(f.s_pct - s_true) <= 2 * f.s_se_pct
     assert abs(f.fs_pct - fs) <= 2 * f.fs_se_pct and abs(f.fd_pct - fd) <= 2 * f.fd_se_pct
-    assert abs(f.j_pct - j_true) <= 2 * f.j_se_pct and f.j_se_pct < 0.05 * f.s_se_pct
+    assert abs(f.j_pct - j_true) <= 2 * f.j_se_pct and f.j_se_pct > 10 * friction(d.extended.fit, record).j_se_pct
     fitted = friction(d.extended.fit, record)  # the fit's own errors, before any model doubt
     assert f.s_se_pct > 10 * fitted.s_se_pct
     plain = diagnose(_record(Extensions(), fs, fd))
