@@ -54,6 +54,12 @@ def _wider(x, cap):
     return out
 
 
+SLIDE_MIN_SHARE = 1e-6
+SLIDE_MIN_TRAVEL_PCT = 1e-9
+"""A slide shorter than this share of an interval, or along a drive that moves less than this in it (a flat OP
+through a short lag), is none: the stem sticks where it is (its landing's share of the interval would be 0/0)."""
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_levels, band, stop, level0, window,
          slide):  # fmt: skip
@@ -93,11 +99,11 @@ def walk(start, end, mean, moves, decay, read_at, read_dir, read_levels, use_lev
                 s0, e0 = start[k], end[k]
                 op = (e0 - decay * s0) / (1.0 - decay)
                 rate = abs(op - s0) / tau
-                if (op - s0) * slide_d > 0 and rate > slide[c]:
+                t_c = tau * math.log(rate / slide[c]) if rate > slide[c] else 0.0
+                if (e0 - s0) * slide_d > SLIDE_MIN_TRAVEL_PCT and t_c > SLIDE_MIN_SHARE:
                     j = anchor[k]
                     if j >= 0 and not used[j] and read_dir[j] == slide_d:
                         used[j] = True  # a slip the data read inside the slide is the slide's
-                    t_c = tau * math.log(rate / slide[c])
                     if t_c >= 1.0:
                         stem_at, share = e0, (e0 - mean[k]) / (e0 - s0)
                     else:  # it sticks where the drive slows to the slide speed

@@ -381,3 +381,17 @@ def test_a_band_in_the_coarse_grids_second_basin_is_found():
     f = friction(vf, record)
     assert f.fs_pct == pytest.approx(spec.fs_pct, abs=2.0), (f.fs_pct, spec.fs_pct)
     assert f.fd_pct == pytest.approx(spec.fd_pct, abs=2.0), (f.fd_pct, spec.fd_pct)
+
+
+def test_a_stem_sliding_into_a_flat_op_behind_a_short_lag_stops_there():
+    """A measured flow loop (StictionGPT FIC31102) held OP flat for minutes behind a fitted lag of 0.3 s, under a
+    candidate whose stop exceeded its band (no slip: it slides at any speed).  The drive then moves by rounding
+    alone, and a slide's share of the interval was 0/0: NaN regressors stopped the whole diagnosis."""
+    op = np.concatenate([np.linspace(0.0, 5.573277, 60), np.full(300, 5.573277)])
+    drive = M.drive_of(op, 0.3, 1.0)
+    no_slips = M.Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
+    (slips,) = F.walk(no_slips, drive, np.array([0.354]), np.array([0.426]), np.zeros(1), 3)
+    assert np.sum(slips.breaks[slips.at < 60] < 0) > 10  # it slid along the ramp
+    assert np.all(np.isfinite(M.path_regressors(slips, op.size, 1.0)))
+    (ref,) = walk_by_sample(no_slips, drive, np.array([0.354]), np.array([0.426]), np.zeros(1), 3)
+    np.testing.assert_array_equal(slips.at, ref.at)

@@ -29,10 +29,11 @@ def walk_by_sample(
             op = (e0 - drive.decay * s0) / (1 - drive.decay) if lagged else e0
             if sliding is not None:
                 rate = abs(op - s0) / tau
-                if np.sign(op - s0) == sliding and rate > speed:
+                t_c = (tau * np.log(rate / speed) if speed > 0 else np.inf) if rate > speed else 0.0
+                # a shorter slide, or one along a drive that hardly moves, is none: it sticks where it is
+                if (e0 - s0) * sliding > 1e-9 and t_c > 1e-6:
                     if j is not None and not used[j] and read.directions[j] == sliding:
                         used[j] = True
-                    t_c = tau * np.log(rate / speed)
                     if t_c >= 1:
                         land, share = e0, (e0 - drive.mean[k]) / (e0 - s0)
                     else:
@@ -53,7 +54,7 @@ def walk_by_sample(
                 slid = lagged and np.sign(op - s0) == d and abs(op - land) / tau > speed
                 offset = 0.0
                 if slid:
-                    t_e = min(brk + tau * np.log(abs(op - land) / tau / speed), 1.0)
+                    t_e = min(brk + tau * np.log(abs(op - land) / tau / speed), 1.0) if speed > 0 else 1.0
                     land = e0 if t_e >= 1 else op + (s0 - op) * np.exp(-t_e / tau)
                     sliding = d if t_e >= 1 else None
                     # from the break to t_e the stem follows the drive: its mean there, less the landing's
