@@ -19,18 +19,25 @@ import numpy as np
 from stiction.schemas.errors import InputError
 
 
-def _diagnose_file(path: str) -> tuple[dict, float]:
-    """The diagnosis report of one export, and the CPU seconds it took (reading the file included)."""
+def _diagnose_file(path: str) -> tuple[dict | None, float, str | None]:
+    """The diagnosis report of one export, the CPU seconds it took (reading the file included), and the one-line
+    error where there is no report: one loop's failure is that loop's row, not the run's end."""
     from stiction.bridge.historian import read_export
     from stiction.ident.report import diagnose_loop
 
     started = time.process_time()
-    export = read_export(path)
-    # as ``stiction diagnose`` reads it: the setpoint too (the stuck-travel check reads OP's travel between its moves)
-    report, _, _ = diagnose_loop(
-        Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, sp=export.sp
-    )
-    return json.loads(report.model_dump_json()), time.process_time() - started
+    try:
+        export = read_export(path)
+        # as ``stiction diagnose`` reads it: the setpoint too (the stuck-travel check reads OP's travel between
+        # its moves)
+        report, _, _ = diagnose_loop(
+            Path(path).stem, export.op, export.pv, export.ts_s, export.mv, export.warnings, sp=export.sp
+        )
+    except InputError as e:
+        return None, time.process_time() - started, str(e)
+    except Exception as e:  # a defect, not the file's: said as one, and the other loops go on
+        return None, time.process_time() - started, f"internal error: {type(e).__name__}: {e}"
+    return json.loads(report.model_dump_json()), time.process_time() - started, None
 
 
 def labels(folder: Path) -> dict[str, dict]:
@@ -69,7 +76,9 @@ def bench_measured(folders: list[Path], workers: int = 2) -> dict:
         os.environ[var] = "1"
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         done = list(pool.map(_diagnose_file, files))
-    reports, seconds = [r for r, _ in done], [s for _, s in done]
+    failed = [{"file": Path(path).name, "error": err} for path, (_, _, err) in zip(files, done, strict=True) if err]
+    kept = [(path, r, s) for path, (r, s, err) in zip(files, done, strict=True) if err is None]
+    files, reports, seconds = [k[0] for k in kept], [k[1] for k in kept], [k[2] for k in kept]
     known = {}
     for f in folders:
         known.update(labels(f if f.is_dir() else f.parent))
@@ -82,6 +91,7 @@ def bench_measured(folders: list[Path], workers: int = 2) -> dict:
     called = [(row["report"]["stiction_delta_criterion"] > 0, row["label"] == "stiction") for row in labelled]
     summary = {
         "loops": len(rows),
+        "failed": failed,
         "labelled": len(labelled),
         "stiction_earns_its_place": {
             "true_positive": sum(c and t for c, t in called),
@@ -136,6 +146,8 @@ def print_summary(figures: dict) -> None:
           f"{c['true_positive']} of {c['true_positive'] + c['false_negative']} labelled sticky, "
           f"{c['false_positive']} of {c['false_positive'] + c['true_negative']} labelled not")  # fmt: skip
     print("causes named: " + ", ".join(f"{k} {v}" for k, v in sorted(s["causes"].items(), key=lambda kv: -kv[1])))
+    for fail in s.get("failed", []):
+        print(f"not diagnosed: {fail['file']}: {fail['error']}")
     if s.get("cpu_s_max") is not None:
         print(f"CPU seconds a loop (reading and diagnosing, one core each): median {s['cpu_s_median']:.1f}, "
               f"largest {s['cpu_s_max']:.1f} ({s['slowest']})")

@@ -27,3 +27,21 @@ def test_a_folder_without_exports_is_named_not_benched_as_zero_loops(tmp_path):
     (tmp_path / "csv").mkdir()
     with pytest.raises(InputError, match="no CSV export here"):
         bench_measured([tmp_path], workers=1)
+
+
+def test_a_loop_that_cannot_be_diagnosed_is_named_and_the_others_are_benched(tmp_path, capsys):
+    """One export the diagnosis cannot read (here a file of three rows) is that loop's one line, not the run's end:
+    a defect on one measured loop (a NaN in a fit) once stopped the whole table."""
+    from stiction.sim.export import write_csv
+    from stiction.sim.loop import LoopSpec, simulate
+
+    good = tmp_path / "good.csv"
+    write_csv(good, simulate([LoopSpec(30.0, 10.0)]).kept())
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,op,pv\n0,1,2\n1,1,2\n2,1,2\n")
+    fig = bench_measured([bad, good], workers=1)
+    assert [row["file"] for row in fig["rows"]] == [str(good)]
+    (fail,) = fig["summary"]["failed"]
+    assert fail["file"] == "bad.csv" and fail["error"] and "\n" not in fail["error"]
+    print_summary(fig)
+    assert "not diagnosed: bad.csv: " in capsys.readouterr().out
