@@ -80,7 +80,10 @@ def walk(
     if np.any(np.diff(read.at) < 0):
         raise ValueError("read slips out of time order")
     band, stop = np.asarray(band, float), np.asarray(stop, float)
-    slide = np.broadcast_to(slide_speed_pct_s(VALVE.lbf_per_pct * (band - stop)) * drive.ts_s, band.shape)
+    # a stem slides only along a drive that moves within an interval (a lag); the speeds' bisection is 40 % of a
+    # walk's time, so a held drive's walk does without them
+    speed = slide_speed_pct_s(VALVE.lbf_per_pct * (band - stop)) * drive.ts_s if drive.moves else np.inf
+    slide = np.broadcast_to(speed, band.shape)
     counts, at, dirs, brk, land, forced, offs = kernels.walk(
         drive.start,
         drive.end,
@@ -91,8 +94,8 @@ def walk(
         read.directions.astype(np.int64),
         np.zeros(read.at.size) if read_levels is None else np.asarray(read_levels, float),
         read_levels is not None,
-        np.asarray(band, float),
-        np.asarray(stop, float),
+        band,
+        stop,
         np.asarray(level0, float),
         int(window),
         np.ascontiguousarray(slide, dtype=float),
@@ -104,7 +107,6 @@ def walk(
 def _as_slips(ev: list[tuple]) -> Slips:
     if not ev:
         return Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
-    ev = [e if len(e) == 6 else (*e, 0.0) for e in ev]
     at, dirs, brk, land, rd, off = (np.array(x) for x in zip(*ev, strict=True))
     return Slips(at.astype(int), dirs.astype(int), brk.astype(float), land.astype(float), rd.astype(bool),
                  off.astype(float))  # fmt: skip

@@ -41,7 +41,7 @@ def walk_by_sample(
                         # the drive's mean until it slows, then the stuck stem's level: the flow the slip's share mixes
                         area = op * t_c + (s0 - op) * tau * (1 - np.exp(-t_c / tau)) + (1 - t_c) * land
                         share = (land - area) / (land - s0)
-                    events.append((k, sliding, -share, float(land), False))
+                    events.append((k, sliding, -share, float(land), False, 0.0))
                     level = float(land) - sliding * stop[c]
                     sliding = sliding if t_c >= 1 else None
                     continue
@@ -78,7 +78,7 @@ def walk_by_sample(
                 first = next((i for i, x in enumerate(ahead) if abs(x - level) > band[c]), None)
                 if first is not None and np.sign(ahead[first] - level) == d:
                     continue
-                events.append((k, d, 0.0, float(drive.mean[k]), True))
+                events.append((k, d, 0.0, float(drive.mean[k]), True, 0.0))
                 used[j] = True
                 level = float(drive.mean[k]) - d * stop[c] if read_levels is None else float(read_levels[j])
         out.append(_as_slips(events))
