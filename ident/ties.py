@@ -69,7 +69,9 @@ def lag_band_tie(chosen: Model, read: Friction, slope: float | None) -> list[Tie
     While the stem is stuck OP ramps at some rate r (% a second), and during a ramp a first-order lag is a delay
     of tau.  A model whose lag is tau' < tau reads the drive r (tau - tau') ahead of the true one, and to break the
     stem where it broke and land it where it landed it needs a band and a stop each that much wider: S (band +
-    stop) reads 2 r (tau - tau') wider, J (band - stop) the same.  In a limit cycle, whose ramps are alike, the
+    stop) reads 2 r (tau - tau') wider, J (band - stop) the same.  Where the stem slides along the drive
+    (``ident.fit.walk``, since 2026-11-27) the slides pin the stop and J moves with the band: ``lag_widened`` widens
+    J's error too.  In a limit cycle, whose ramps are alike, the
     criterion hardly tells the lags apart (fits at lags of 2-8 s lie within a few units, their fs 15-20 % of 500
     lbf apart: docs/benchmarks.md), so the report gives the line, S at no lag and its slope 2 r (r the median of
     OP's steps while the model's stem is held), which a stroke test's lag reads S off.  On the 24 actuator lags of
@@ -93,7 +95,8 @@ def lag_band_tie(chosen: Model, read: Friction, slope: float | None) -> list[Tie
             None,
             {"s_pct_at_no_lag": s0, "s_pct_per_lag_s": slope},
             f"a slower actuator or a wider band: each second of actuator lag reads as {slope:.3g} % less S (OP ramps "
-            f"{slope / 2:.3g} % a second while the valve sticks, and band and stop each follow it; J is the same), "
+            f"{slope / 2:.3g} % a second while the valve sticks, and band and stop each follow it between slips; "
+            f"where the stem slides along the lagged drive the stop is pinned and J moves too), "
             f"and a limit cycle hardly tells them apart: S {read.s_pct:.3g} % at the lag read ({tau:.3g} s) is "
             f"about {s0:.3g} - {slope:.3g} x lag (s) at another, which a stroke test's lag reads S off{rougher}",
         )
