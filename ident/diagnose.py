@@ -33,6 +33,7 @@ from stiction.ident.cause_fit import (
     names,
     quantised,
     refined,
+    runner_up_scanned,
     screen,
     spread,
     widened,
@@ -79,7 +80,8 @@ def _forward_step(fitter: Fitter, current: Model, remaining: list[str]) -> tuple
     values = {c: full_values(fitter, screened[c]) for c in chosen}
     tasks = [APPLY[c](current.hypothesis, v) for c in chosen for v in values[c]]
     fitted = iter(fitter.fulls(tasks, current.fit))
-    models = {c: best_of_full(fitter, screened[c], current, [(v, *next(fitted)) for v in values[c]]) for c in chosen}
+    fits = {c: runner_up_scanned(fitter, c, current, [(v, *next(fitted)) for v in values[c]]) for c in chosen}
+    models = {c: best_of_full(fitter, screened[c], current, fits[c]) for c in chosen}
     # the current model at its best: a cause must not get the credit for a better valve fit its search found
     reference = min([current.criterion, *(baseline(fitter, current, m).criterion for m in models.values())])
     for c in ranked:
