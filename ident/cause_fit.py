@@ -171,6 +171,13 @@ lowest minima.  A dead time's first-pass fit reads the slips a sample or two off
 (``ident.diagnose.SCREEN_BLIND``), and its ranking of the delays is no guide beyond a sample: behind a dead time of
 4.47 s (seed 9001 of the wide draws, ``tests/ident/test_diagnose.py``) the screen put 4.4 s sixth among its
 minima, 171 behind 1.4 s, and the full fits put it 101 ahead.  Up to 12 more full fits a forward step."""
+
+
+def _whole_samples(values, ts_s: float) -> np.ndarray:
+    """The whole samples each value (s) lies in: what ``EVERY_SAMPLE`` and ``RUNNER_UP_SCAN`` group delays by."""
+    return np.floor(np.asarray(values, float) / ts_s + 1e-9).astype(int)
+
+
 ABOVE_THE_SCREEN = {"sensor_lag": 3}
 """Grid points above the screen's best also fitted in full, by cause.  A first-pass fit reads every slip through the
 sensor lag's inverse filter, which amplifies PV's noise the more the longer the lag: the spurious slips grow with the
@@ -194,13 +201,14 @@ def runner_up_scanned(
     """``fits`` ((value, fit, criterion) of ``cause``'s full fits) and, for ``RUNNER_UP_SCAN``'s causes, the full fits
     about the best value of the second-best whole sample."""
     steps = RUNNER_UP_SCAN.get(cause)
+    if not steps:
+        return fits
     ts = fitter.record.ts_s
     best: dict[int, tuple[float, float]] = {}
-    for v, _, ic in fits:
-        k = int(np.floor(v / ts + 1e-9))
+    for k, (v, _, ic) in zip(_whole_samples([v for v, _, _ in fits], ts), fits, strict=True):
         if k not in best or ic < best[k][1]:
             best[k] = (v, ic)
-    if not steps or len(best) < 2:
+    if len(best) < 2:
         return fits
     at = sorted(best.values(), key=lambda b: b[1])[1][0]
     done = {v for v, _, _ in fits}
@@ -251,7 +259,7 @@ def full_values(fitter: Fitter, sc: Screened) -> list[float]:
     minima = local_minima(sc.criteria, FULL_FITS_PER_CAUSE)
     values = [float(sc.grid[i]) for i in minima]
     if sc.cause in EVERY_SAMPLE:
-        whole = np.floor(sc.grid / fitter.record.ts_s + 1e-9).astype(int)
+        whole = _whole_samples(sc.grid, fitter.record.ts_s)
         held = {int(whole[i]) for i in minima}
         for k in np.unique(whole):
             at = np.flatnonzero(whole == k)

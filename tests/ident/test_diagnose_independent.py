@@ -23,7 +23,7 @@ def test_a_sensor_lag_the_screen_reads_short_is_read_within_its_range():
     # a first-pass fit reads the slips through the lag's inverse filter, whose noise grows with the lag: the screen's
     # best lay at 3.5 s for this lag of 4.39 s, and the read 3.27 s with a range that stopped short of the truth
     # (ident.cause_fit.ABOVE_THE_SCREEN); the loop is the bench's (stiction bench diagnose --draws wide --seed 3737)
-    from stiction.bench.diagnose import EFFECT_RANGES
+    from stiction.sim.grid import EFFECT_RANGES
 
     spec = effect_loops("sensor_lag", 8, 3737 + list(EFFECT_RANGES).index("sensor_lag"), draws="wide")[3]
     truth = spec.extensions.sensor_tau_s
