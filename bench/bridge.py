@@ -45,7 +45,8 @@ def _wait(condition, timeout_s: float, what: str) -> None:
         tick.wait(0.1)
 
 
-def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = True) -> dict:
+def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = True, rate: float | None = None) -> dict:
+    """``rate``: the bridge's messages per second per loop (``stiction bridge opcua --rate``; None: its default)."""
     import zenoh
 
     endpoint = zenoh_session.free_loopback_endpoint()
@@ -77,6 +78,7 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
             procs["bridge"] = _start(
                 "bridge", "opcua", "--loop-file", str(loop_file), "--prefix", PREFIX, "--connect", endpoint,
                 "--listen", zenoh_session.free_loopback_endpoint(), "--status-every", "0",
+                *(["--rate", str(rate)] if rate else []),
             )  # fmt: skip
             _wait(lambda: len(arrivals) == loops, 120, f"samples of all {loops} loops")
             time.sleep(3.0)  # past the subscription's first burst
@@ -89,7 +91,8 @@ def run_bridge_bench(loops: int = 1000, seconds: float = 60.0, restart: bool = T
             with lock:
                 steady = {k: [a for a in v if t0 <= a[3] <= t1] for k, v in arrivals.items()}
             figures = _steady(steady, loops, t1 - t0)
-            figures |= {"loops": loops, "seconds": t1 - t0, "bridge_cores": cpu["bridge"], "plant_cores": cpu["plant"]}
+            figures |= {"loops": loops, "seconds": t1 - t0, "bridge_cores": cpu["bridge"], "plant_cores": cpu["plant"],
+                        "rate": rate, "messages_per_s": sum(map(len, steady.values())) / (t1 - t0)}  # fmt: skip
             figures["bridge_peak_rss_mb"] = bridge_rss
             figures["plant_status"] = _last_status(Path(tmp) / "plant.log")
             if health:
@@ -167,7 +170,8 @@ def print_table(f: dict) -> None:
     print(f"{f['loops']} loops at 1 Hz from an OPC UA server through one bridge, {f['seconds']:.0f} s steady")
     print(
         f"  samples received {f['samples_received']} ({f['samples_per_s']:.0f}/s), lost {f['samples_lost']}, "
-        f"loops seen {f['loops_seen']}"
+        f"loops seen {f['loops_seen']}; {f['messages_per_s']:.0f} messages a second"
+        + (f" (--rate {f['rate']:g})" if f.get("rate") else "")
     )
     print(f"  latency grid time -> subscriber: p50 {f['latency_p50_s']:.2f} s, p99 {f['latency_p99_s']:.2f} s")
     print(

@@ -12,10 +12,12 @@ import asyncio
 import contextlib
 import datetime as dt
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from stiction.bridge.publish import stagger_groups
 from stiction.bridge.sampler import Reading, Sampler
 from stiction.schemas.errors import InputError
 from stiction.schemas.loop_file import LoopFile
@@ -46,6 +48,11 @@ class BridgeSettings:
     watchdog_s: float = 10.0
     """asyncua's own liveness probe: its interval and timeout.  A server that closes the socket is
     noticed at once; this only bounds how long a silent, half-open connection goes unnoticed."""
+    batch_s: float | None = None
+    """A loop's samples of this many seconds go out in one message (``stiction bridge opcua --rate``), its loops
+    spread over the interval, a group every sample time (``bridge.publish.stagger_groups``); None: each sample as
+    it settles, every loop at once.  An agent's cost per message, not per sample, is what limits it at one sample
+    a message (docs/scaling.md): five seconds a message carried 20,000 loops where one did not."""
 
 
 class OpcuaBridge:
@@ -60,6 +67,10 @@ class OpcuaBridge:
         self.loop_file = loop_file
         self.settings = settings
         self.sampler = Sampler(loop_file.loops, loop_file.sample_time_s)
+        ids = list(loop_file.loops)
+        every_s = max(settings.batch_s or 0.0, loop_file.sample_time_s)
+        self._groups = [[ids[j] for j in g] for g in stagger_groups(len(ids), every_s, loop_file.sample_time_s)]
+        """The loops asked for their samples at each tick in turn (one group: every loop at every tick)."""
         self.publish = publish
         self.on_health = on_health
         self.clock = clock
@@ -209,7 +220,11 @@ class OpcuaBridge:
 
     # out --------------------------------------------------------------------------------------------
     def _publish_due(self) -> None:
-        for batch in self.sampler.due(self.sampler.server_time(self.clock())):
+        """The settled samples of the loops whose turn it is (every loop's, unless ``batch_s``) to ``publish``."""
+        now = self.sampler.server_time(self.clock())
+        groups = self._groups
+        turn = None if len(groups) < 2 else groups[math.floor(now / self.sampler.ts_s) % len(groups)]
+        for batch in self.sampler.due(now, turn):
             self.publish(batch)
 
     def health(self) -> BridgeHealth:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,13 +111,16 @@ class Sampler:
             changes.append((max(t_s, changes[-1][0]) if changes else t_s, math.nan))
 
     # out ------------------------------------------------------------------------------------------
-    def due(self, server_t_s: float) -> list[dict]:
-        """Every loop's samples on the grid points that have settled by ``server_t_s``, as
-        ``SampleBatch`` dicts: one per run of grid points where OP and PV are known."""
+    def due(self, server_t_s: float, loops: Iterable[str] | None = None) -> list[dict]:
+        """Every loop's samples (``loops``: these loops' only) on the grid points that have settled by
+        ``server_t_s`` and were not yet out, as ``SampleBatch`` dicts: one per run of grid points where OP and
+        PV are known.  ``publishing`` is then the loops whose samples went out the last time they were asked."""
         k_end = math.floor((server_t_s - self.settle_s) / self.ts_s)
         out: list[dict] = []
-        self.publishing = set()
-        for loop_id, nodes in self.loops.items():
+        asked = list(self.loops) if loops is None else list(loops)
+        self.publishing.difference_update(asked)
+        for loop_id in asked:
+            nodes = self.loops[loop_id]
             k = self._k_next.get(loop_id)
             if k is None:  # a loop starts at the first settled grid point where OP and PV are known
                 start = np.array([k_end * self.ts_s])

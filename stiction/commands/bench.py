@@ -87,6 +87,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     b.add_argument("--loops", type=int, default=1000)
     b.add_argument("--seconds", type=float, default=60.0, help="length of the steady phase, wall clock")
     b.add_argument("--no-restart", action="store_true", help="skip the server restart")
+    b.add_argument("--rate", type=float, help="the bridge's messages per second per loop (its --rate)")
     b.add_argument("--json", action="store_true")
     d = sub.add_parser("diagnose", help="per cause of the catalogue: named, parameter error, gain, fs/fd, time")
     d.add_argument("--loops", type=int, default=20, help="generated loops per cause")
@@ -315,9 +316,10 @@ def _throughput(args) -> None:
 def _bridge(args) -> None:
     from stiction.bench.bridge import print_table, run_bridge_bench
 
-    if args.loops < 1 or args.seconds <= 0:
-        raise InputError("--loops and --seconds must be positive")
-    _emit(args, _host(run_bridge_bench(args.loops, args.seconds, restart=not args.no_restart)), print_table)
+    if args.loops < 1 or args.seconds <= 0 or (args.rate is not None and not args.rate > 0):
+        raise InputError("--loops, --seconds and --rate must be positive")
+    figures = run_bridge_bench(args.loops, args.seconds, restart=not args.no_restart, rate=args.rate)
+    _emit(args, _host(figures), print_table)
 
 
 BENCHMARKS = {

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import socket
 import sys
@@ -46,6 +47,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     o.add_argument("--bridge-id", help="unique per bridge (default: host-pid)")
     o.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
+    o.add_argument(
+        "--rate",
+        type=float,
+        help="messages per second per loop (default: one a sample time, each sample as it settles); 0.2: five "
+        "seconds of a loop's samples a message, the loops spread over them (an agent's cost is per message)",
+    )
     zenoh_config.add_arguments(o)
     zenoh_config.add_publisher_arguments(o)
 
@@ -80,9 +87,13 @@ def settings_from(args: argparse.Namespace, loop_file):
         for f in parts[2:]:
             if not Path(f).is_file():
                 raise InputError(f"--security: {f}: no such file")
+    rate = args.rate
+    if rate is not None and not (math.isfinite(rate) and rate > 0):
+        raise InputError(f"--rate {rate:g}: messages per second per loop, a positive number (0.2: one every 5 s)")
     return BridgeSettings(
-        bridge_id, endpoint, security=security, user=user, password=password, application_uri=args.application_uri
-    )
+        bridge_id, endpoint, security=security, user=user, password=password, application_uri=args.application_uri,
+        batch_s=None if rate is None else 1.0 / rate,
+    )  # fmt: skip
 
 
 class Status:
@@ -123,9 +134,10 @@ def run(args: argparse.Namespace) -> int:
             status.maybe(health)
 
         bridge = OpcuaBridge(loop_file, settings, out.put, on_health)
+        batched = f", {max(settings.batch_s, loop_file.sample_time_s):g} s a message" if settings.batch_s else ""
         print(
             f"bridge {settings.bridge_id}: {len(loop_file.loops)} loops from {settings.endpoint} "
-            f"every {loop_file.sample_time_s:g} s to {zenoh_config.samples_keys(args)}",
+            f"every {loop_file.sample_time_s:g} s to {zenoh_config.samples_keys(args)}{batched}",
             flush=True,
         )
 

@@ -213,6 +213,8 @@ LOOPS_TOML = '[loops.A]\nop = "ns=2;s=A.OP"\npv = "ns=2;s=A.PV"\n'
             "no password in the environment variable NO_SUCH_VAR_X",
         ),  # fmt: skip
         (LOOPS_TOML, ["--endpoint", "opc.tcp://127.0.0.1:1", "--bridge-id", "a/b"], "bridge id 'a/b'"),
+        (LOOPS_TOML, ["--endpoint", "opc.tcp://127.0.0.1:1", "--rate", "0"], "--rate 0: messages per second"),
+        (LOOPS_TOML, ["--endpoint", "opc.tcp://127.0.0.1:1", "--rate", "nan"], "--rate nan: messages per second"),
     ],
 )
 def test_the_bridge_answers_a_bad_loop_file_or_flag_with_one_line(tmp_path, capsys, loop_file, flags, expected):
