@@ -53,7 +53,7 @@ def _grid(cause: str, record: Record, current: Model) -> np.ndarray:
         return np.array([1.0])
     if cause == "external_oscillation":
         scan = osc_scan_periods(record)
-        peaks = residual_periods(record, current.fit)
+        peaks = load_periods(record, current.fit)
         return np.unique(np.concatenate([scan, peaks[peaks >= 10 * ts]]))
     raise ValueError(cause)
 
@@ -63,19 +63,54 @@ def osc_scan_periods(record: Record) -> np.ndarray:
     return np.geomspace(10 * record.ts_s, record.n * record.ts_s / 2.5, 40)
 
 
-def residual_periods(record: Record, vf: ValveFit, count: int = 4) -> np.ndarray:
-    """Periods [s] of the strongest peaks of the residual's spectrum (as PV levels), longest first."""
+def _residual_spectra(record: Record, vf: ValveFit) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The residual's power spectrum (Hann window), the same read as PV levels (the residual is of PV's steps), and
+    their frequencies [Hz]; both zero below three cycles in the record."""
     resid = record.target - vf.fit.prediction
     n = resid.size
-    spec = np.abs(np.fft.rfft(resid * np.hanning(n))) ** 2
+    power = np.abs(np.fft.rfft(resid * np.hanning(n))) ** 2
     freq = np.fft.rfftfreq(n, record.ts_s)
-    lo = np.searchsorted(freq, 3.0 / (n * record.ts_s))  # at least three cycles in the record
-    level = spec[1:] / np.maximum(np.abs(1 - np.exp(-2j * np.pi * freq[1:] * record.ts_s)) ** 2, 1e-12)
-    level = np.concatenate([[0.0], level])
-    level[:lo] = 0
-    peaks = np.flatnonzero((level[1:-1] > level[:-2]) & (level[1:-1] >= level[2:])) + 1
-    peaks = peaks[np.argsort(level[peaks])[::-1][:count]]
+    lo = max(int(np.searchsorted(freq, 3.0 / (n * record.ts_s))), 1)  # at least three cycles in the record
+    power[:lo] = 0
+    level = power / np.maximum(np.abs(1 - np.exp(-2j * np.pi * freq * record.ts_s)) ** 2, 1e-12)
+    return power, level, freq
+
+
+def _peaks(spectrum: np.ndarray, count: int) -> np.ndarray:
+    """Bins of the ``count`` strongest local maxima of ``spectrum``."""
+    peaks = np.flatnonzero((spectrum[1:-1] > spectrum[:-2]) & (spectrum[1:-1] >= spectrum[2:])) + 1
+    return peaks[np.argsort(spectrum[peaks])[::-1][:count]]
+
+
+def residual_periods(record: Record, vf: ValveFit, count: int = 4) -> np.ndarray:
+    """Periods [s] of the strongest peaks of the residual's spectrum (as PV levels), longest first."""
+    _, level, freq = _residual_spectra(record, vf)
+    peaks = _peaks(level, count)
     return np.sort(1.0 / freq[peaks])[::-1] if peaks.size else np.zeros(0)
+
+
+def load_periods(record: Record, vf: ValveFit, count: int = 4) -> np.ndarray:
+    """Periods [s] an external load is fitted at beside the scan (``osc_scan_periods``): the ``count`` strongest
+    peaks of the residual read as PV levels (a slow load) and as it is (a fast one, which the levels' weighting
+    buries under slow wander), each placed between its bins by a parabola through the log power, longest first.
+
+    A sine fitted over the whole record must hold its phase there: a period off by its own share of the record (2 %
+    for 20 cycles) fits nothing.  The scan's 10 % steps and the spectrum's bins (up to half a bin off: 1.3 % at 19 s
+    of a 1,000 s record) both miss a fast load; the parabola through a Hann window's peak lands within a few
+    hundredths of a bin.  Behind a load of 19.16 s and 3 % (seed 7272 of the wide draws) the four strongest level
+    peaks were 23.5-329 s, the best fit there 2,900 behind one at the load's own period, and the diagnosis named a
+    dead time, a process gain and a load of a sixth of the amplitude; the residual's own spectrum put its peak at
+    19.35 s, the parabola at 19.17 s."""
+    power, level, freq = _residual_spectra(record, vf)
+    out = []
+    for spectrum in (level, power):
+        for k in _peaks(spectrum, count):
+            a, b, c = np.log(np.maximum(spectrum[k - 1 : k + 2], 1e-300))
+            curve = a - 2 * b + c
+            beside = min(spectrum[k - 1], spectrum[k + 1]) > 0  # a neighbour below three cycles reads nothing
+            shift = float(np.clip(0.5 * (a - c) / curve, -0.5, 0.5)) if curve < 0 and beside else 0.0
+            out.append(1.0 / ((k + shift) * freq[1]))
+    return np.unique(np.array(out))[::-1]
 
 
 def _between(grid: np.ndarray, best: int) -> np.ndarray:
