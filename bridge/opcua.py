@@ -68,8 +68,10 @@ class OpcuaBridge:
         self.settings = settings
         self.sampler = Sampler(loop_file.loops, loop_file.sample_time_s)
         ids = list(loop_file.loops)
-        every_s = max(settings.batch_s or 0.0, loop_file.sample_time_s)
-        self._groups = [[ids[j] for j in g] for g in stagger_groups(len(ids), every_s, loop_file.sample_time_s)]
+        self.message_every_s = max(settings.batch_s or 0.0, loop_file.sample_time_s)
+        """How many seconds of a loop's samples go out a message: ``batch_s``, at least a sample time."""
+        groups = stagger_groups(len(ids), self.message_every_s, loop_file.sample_time_s)
+        self._groups = [[ids[j] for j in g] for g in groups]
         """The loops asked for their samples at each tick in turn (one group: every loop at every tick)."""
         self.publish = publish
         self.on_health = on_health

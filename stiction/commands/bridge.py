@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
             status.maybe(health)
 
         bridge = OpcuaBridge(loop_file, settings, out.put, on_health)
-        batched = f", {max(settings.batch_s, loop_file.sample_time_s):g} s a message" if settings.batch_s else ""
+        batched = f", {bridge.message_every_s:g} s a message" if settings.batch_s else ""
         print(
             f"bridge {settings.bridge_id}: {len(loop_file.loops)} loops from {settings.endpoint} "
             f"every {loop_file.sample_time_s:g} s to {zenoh_config.samples_keys(args)}{batched}",
