@@ -23,6 +23,40 @@ ALIASES = {
 }
 
 
+MODE_WORDS = {
+    **dict.fromkeys(("auto", "aut", "automatic", "a", "cas", "cascade", "rcas"), 1.0),
+    **dict.fromkeys(("man", "manual", "m", "iman", "lo", "rout", "oos", "trk", "track"), 0.0),
+}
+"""Controller modes as control systems write them (AUTO, MAN, CAS, RCAS, ROUT, IMAN, LO, OOS), case ignored: 1 where
+the loop's own controller drives the valve (a closed loop), 0 where it does not (manual, an output set from outside,
+a tracked or initialising output, out of service: an open loop)."""
+
+
+def modes(name: str, column: str, texts: list, decimal: str, row_of) -> tuple[np.ndarray, frozenset[str]]:
+    """A mode column as numbers, as recorded (``numbers``), or, where it holds words, each word's ``MODE_WORDS`` value
+    and the words that meant an open loop (so that a report can say when the controller was not driving the valve)."""
+    try:
+        return numbers(name, "mode", column, texts, decimal, row_of), frozenset()
+    except InputError:
+        words = [str(s).strip().lower() for s in texts]
+        known = [w in MODE_WORDS for w in words]
+        if not any(known):
+            raise
+    if not all(known):
+        k = known.index(False)
+        raise InputError(
+            f"{name}: row {row_of(k)}, column {column!r}: {texts[k]!r} is no controller mode this reader knows "
+            f"(numbers as recorded, or {', '.join(w.upper() for w in MODE_WORDS if len(w) > 1)})"
+        )
+    codes = np.array([MODE_WORDS[w] for w in words])
+    return codes, frozenset(w.upper() for w, c in zip(words, codes, strict=True) if c == 0.0)
+
+
+def blank(row: list[str]) -> bool:
+    """A row with no value in it: an empty line, or separators alone (``,,,``, as spreadsheets end an export)."""
+    return not any(cell.strip() for cell in row)
+
+
 def numbers(name: str, field: str, column: str, texts: list, decimal: str, row_of) -> np.ndarray:
     """A column's cells as numbers (``t`` may hold ISO 8601 times), every bad cell an ``InputError``
     naming the file, its row (``row_of``: block index to file row) and column."""
@@ -86,12 +120,12 @@ def finite(name: str, x: np.ndarray, column: str, raw, row_of) -> None:
 
 
 def row_numbers(rows: list[list[str]], line_before: int) -> list[int]:
-    """File rows of the non-empty rows of a block (blank lines skipped); quoted line breaks are
+    """File rows of the non-blank rows of a block (``blank`` rows skipped); quoted line breaks are
     not expected in numeric exports, so each row is one line."""
     out, line = [], line_before
     for r in rows:
         line += 1
-        if r:
+        if not blank(r):
             out.append(line)
     return out
 

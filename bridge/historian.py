@@ -21,7 +21,17 @@ from pathlib import Path
 
 import numpy as np
 
-from stiction.bridge.cells import ALIASES, GAP_TOLERANCE, find_column, finite, numbers, relabel_off_grid, row_numbers
+from stiction.bridge.cells import (
+    ALIASES,
+    GAP_TOLERANCE,
+    blank,
+    find_column,
+    finite,
+    modes,
+    numbers,
+    relabel_off_grid,
+    row_numbers,
+)
 from stiction.bridge.dialect import Dialect, sniff
 from stiction.schemas.errors import InputError
 
@@ -261,7 +271,8 @@ class _Reader:
         self.ts: float | None = None
         self.last_t: float | None = None
         self.relabelled = 0
-        self.mode_values: set[float] = set()
+        self.open_loop_words: set[str] = set()
+        """The mode column's words that meant an open loop (``cells.MODE_WORDS``); empty where it holds numbers."""
         self.gaps_allowed = False
         """``read_export`` reads past gaps (the stretch after the last one is kept); windows every N samples do not."""
         self.gaps: list[tuple[int, int, float]] = []
@@ -306,9 +317,9 @@ class _Reader:
                     if not rows:
                         return
                     rownums = None
-                    if any(not r for r in rows) or reader.line_num - line_before != len(rows):
+                    if any(map(blank, rows)) or reader.line_num - line_before != len(rows):
                         rownums = row_numbers(rows, line_before)
-                        rows = [r for r in rows if r]
+                        rows = [r for r in rows if not blank(r)]
                         if not rows:
                             continue
                     values = self._parse_rows(rows, idx, first, rownums)
@@ -333,8 +344,16 @@ class _Reader:
         values = {}
         for field, i in idx.items():
             texts = [r[i] for r in rows]
-            values[field] = numbers(self.name, field, self.header[i], texts, self.dialect.decimal, row_of)
+            values[field] = self._cells(field, self.header[i], texts, row_of)
         return values
+
+    def _cells(self, field: str, column: str, texts: list, row_of) -> np.ndarray:
+        """A column's text cells as numbers; a mode column's words as ``cells.MODE_WORDS`` reads them."""
+        if field != "mode":
+            return numbers(self.name, field, column, texts, self.dialect.decimal, row_of)
+        codes, open_loop = modes(self.name, column, texts, self.dialect.decimal, row_of)
+        self.open_loop_words |= open_loop
+        return codes
 
     def _parquet_blocks(self) -> Iterator[_Block]:
         try:
@@ -372,7 +391,7 @@ class _Reader:
         if pa.types.is_timestamp(arr.type) or pa.types.is_date(arr.type):
             return arr.cast(pa.timestamp("ms")).to_numpy().astype(np.int64) / 1000.0
         if pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type):
-            return numbers(self.name, field, column, arr.to_pylist(), self.dialect.decimal, row_of)
+            return self._cells(field, column, arr.to_pylist(), row_of)
         try:
             x = arr.to_numpy(zero_copy_only=False).astype(np.float64)
         except (TypeError, ValueError, pa.ArrowInvalid):
@@ -384,8 +403,6 @@ class _Reader:
 
     def _time(self, block: _Block) -> None:
         """Check time order and spacing within the block and across the previous one."""
-        if "mode" in block.values:
-            self.mode_values.update(np.unique(block.values["mode"]).tolist()[:3])
         t = block.values.get("t")
         if t is None:
             return
@@ -526,7 +543,13 @@ class _Reader:
                 "and an identified process read PV in any units; the canonical level process (--process level) "
                 "assumes percent of span, and a process gain is read per percent of PV"
             )
-        if "mode" in v and np.ptp(v["mode"]) > 0:
+        if "mode" in v and self.open_loop_words and np.any(v["mode"] == 0.0):
+            open_loop, words = int(np.count_nonzero(v["mode"] == 0.0)), ", ".join(sorted(self.open_loop_words))
+            notes.append(
+                f"the mode column says the controller did not drive the valve ({words}) on {open_loop} of the {n} "
+                "samples analysed: an open loop there, whose OP is not the controller's"
+            )
+        elif "mode" in v and np.ptp(v["mode"]) > 0:
             notes.append("the mode column changes within the file: part of it may be in manual (open loop)")
         rows = n - interpolated  # the file's rows among the samples
         if (rows_in_file is not None and rows < rows_in_file) or block.first > 0:

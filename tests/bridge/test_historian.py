@@ -193,6 +193,36 @@ def test_blank_lines_are_skipped_and_rows_still_counted(tmp_path):
     assert read_export(_write(tmp_path, "t,op,pv\n0,1,2\n1,1,2\n\n")).op.size == 2
 
 
+def test_rows_of_separators_alone_are_skipped_as_blank_lines_are(tmp_path):
+    """Spreadsheets end an export with rows of separators (``,,``): no samples, not a bad cell."""
+    assert read_export(_write(tmp_path, "t,op,pv\n0,1,2\n1,1,2\n,,\n ,\t, \n")).op.size == 2
+    with pytest.raises(InputError, match="row 5, column 'op'"):  # the file's rows still counted across them
+        read_export(_write(tmp_path, "t,op,pv\n0,1,2\n,,\n1,1,2\n2,x,2\n"))
+    with pytest.raises(InputError, match="row 3, column 'pv'"):  # a row with some values is a row, its empty cell named
+        read_export(_write(tmp_path, "t,op,pv\n0,1,2\n1,1,\n"))
+
+
+def test_a_mode_column_in_words_is_read_and_an_open_loop_stretch_named(tmp_path):
+    """Control systems write the mode as a word (AUTO, MAN, CAS, ...): read, with the samples in an open loop counted."""
+    words = ["AUTO"] * 100 + ["man"] * 30 + ["Cas"] * 70
+    text = "t,op,pv,mode\n" + "".join(f"{k},{50 + np.sin(k):.3f},{40 + np.cos(k):.3f},{w}\n" for k, w in enumerate(words))
+    e = read_export(_write(tmp_path, text))
+    assert e.mode.tolist() == [1.0] * 100 + [0.0] * 30 + [1.0] * 70
+    said = [w for w in e.warnings if "mode column" in w]
+    assert len(said) == 1 and "(MAN) on 30 of the 200 samples" in said[0]
+    closed = "t,op,pv,mode\n" + "".join(f"{k},{50 + np.sin(k):.3f},1,AUTO\n" for k in range(200))
+    assert not [w for w in read_export(_write(tmp_path, closed)).warnings if "mode" in w]
+    pa = pytest.importorskip("pyarrow")
+    import pyarrow.parquet as pq
+
+    pq.write_table(pa.table({"t": np.arange(200.0), "op": np.sin(np.arange(200.0)), "pv": np.ones(200), "mode": words}),
+                   tmp_path / "modes.parquet")  # fmt: skip
+    assert read_export(tmp_path / "modes.parquet").mode.tolist() == e.mode.tolist()
+    bad = text.replace("Cas", "BOGUS", 1)
+    with pytest.raises(InputError, match=r"row 132, column 'mode': 'BOGUS' is no controller mode"):
+        read_export(_write(tmp_path, bad))
+
+
 def test_parquet_is_read_by_content_whatever_its_name(tmp_path):
     pa = pytest.importorskip("pyarrow")
     import pyarrow.parquet as pq
