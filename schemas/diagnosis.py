@@ -89,6 +89,13 @@ class ValveCheck(_Frozen):
     delta_criterion: float = Field(description="criterion of the linear valve minus the sticky one's")
     s_pct: float | None
     j_pct: float | None
+    s_se_pct: float | None = Field(None, description="one standard error of s_pct, the valve model's error included")
+    j_se_pct: float | None = Field(None, description="one standard error of j_pct")
+    valve: Literal["physical", "two_parameter"] | None = Field(
+        None,
+        description="the sticky valve that fits the stem better: the thesis's physical valve (slips while OP ramps) "
+        "or Choudhury's two-parameter valve (sticks where OP turns, then follows it); null where the stem is linear",
+    )
     actuator_tau_s: float
     calibration_gain: float = Field(description="stem travel per % of OP (1: calibrated)")
     calibration_offset_pct: float

@@ -65,8 +65,14 @@ def _summary(path: str, r) -> str:
     ]
     if r.valve_check is not None:
         v = r.valve_check
+        band = (
+            f" ({v.valve.replace('_', '-')} valve: S {f(v.s_pct, 2)} +- {f(v.s_se_pct, 2)}, J {f(v.j_pct, 2)} +- "
+            f"{f(v.j_se_pct, 2)} % of OP)"
+            if v.model == "sticky"
+            else ""
+        )
         lines.append(
-            f"  valve (OP -> measured stem): {v.model}, actuator lag {v.actuator_tau_s:.2g} s, "
+            f"  valve (OP -> measured stem): {v.model}{band}, actuator lag {v.actuator_tau_s:.2g} s, "
             f"stem = {v.calibration_offset_pct:.2f} + {v.calibration_gain:.3f} OP, error {v.error_pct:.2f} %"
         )
     lines += [f"  warning: {w}" for w in r.warnings]
