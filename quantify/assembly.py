@@ -5,8 +5,9 @@ shows (verdict, evidence, the method's numbers, the warnings about the window) a
 the process yet where it is neither declared nor identified as the thesis's.  ``assemble`` makes
 the report from a draft and what is known beside it: the process identified from the window
 (``ident.sizing``: by ``stiction quantify`` at once, by the agent in the background), the export's
-warnings, the agent's id.  Every warning is added here once, where its fact is known, and none is
-ever taken back: a draft assembled again with a newer sizing gives the newer report.
+warnings, the agent's id, a measured stem's valve check.  Every warning is added here once, where its fact is known,
+and none is taken back but the window's "no friction numbers", where a measured stem gives them: a draft assembled
+again with a newer sizing gives the newer report.
 """
 
 from __future__ import annotations
@@ -15,11 +16,13 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from stiction.ident.sizing import Sizing
 from stiction.quantify.window import Window
 from stiction.schemas.report import Estimate, ProcessInfo, StictionReport
 from stiction.sim.process import LOOPS
-from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind
+from stiction.sim.valve import band_and_jump_pct, band_and_jump_se_pct, fault_kind, friction_pct, friction_se_pct
 
 NOT_IDENTIFIED = (
     "process neither declared nor identified: the physical reading of the slips (which needs the thesis's level "
@@ -34,6 +37,8 @@ NOT_READ_WARNING = (
 )
 NOT_READ_PREFIX = "S and J not read under the identified process: "
 NOTHING_SHOWN = {"thesis": None, "physical": None, "learned": None}
+NO_NUMBERS = "no friction numbers: "
+"""How the pipeline's warning that a verdict other than stiction gives no numbers begins (``quantify.pipeline``)."""
 
 
 def opt(x) -> float | None:
@@ -91,6 +96,55 @@ def identified_warning(sizing: Sizing) -> str:
         "plant-like loops"  # fmt: skip
 
 
+def stem_fields(check) -> dict:
+    """The report's verdict and numbers read from a measured stem that sticks (``quantify.stem``)."""
+    s, j, s_se, j_se = (opt(v) for v in (check.s_pct, check.j_pct, check.s_se_pct, check.j_se_pct))
+    fs, fd = (opt(v) for v in friction_pct(s, j))
+    fs_se, fd_se = (opt(v) for v in friction_se_pct(s_se, j_se))
+    return {
+        "verdict": "stiction", "likely_cause": "stiction", "method": "stem",
+        "s_pct": s, "j_pct": j, "s_se_pct": s_se, "j_se_pct": j_se, "stiction_kind": fault_kind(s, j, j_se),
+        "fs_pct": fs, "fd_pct": fd, "fs_se_pct": fs_se, "fd_se_pct": fd_se,
+    }  # fmt: skip
+
+
+def stem_warning(check, draft: StictionReport) -> str:
+    """What the measured stem showed, against what OP and PV alone said."""
+    valve = "Choudhury's two-parameter" if check.valve == "two_parameter" else "the thesis's physical"
+    lag = f"an actuator lag of {check.actuator_tau_s:.2g} s"
+    if check.sticky:
+        alone = (
+            ""
+            if draft.verdict == "stiction"
+            else f"; OP and PV alone said {draft.verdict.replace('_', ' ')} (stiction probability "
+            f"{draft.stiction_probability:.2f}): the stem itself says stiction, and S and J are read from it"
+        )
+        return (
+            f"the measured stem (mv) sticks: {valve} valve with {lag} fits it better than a linear one by "
+            f"{check.delta_criterion:.0f} of Schwarz's criterion{alone}"
+        )
+    said = (
+        ", against the verdict from OP and PV: if mv is the stem's measured travel, the cycle has another cause; "
+        "if it is the positioner's demand (OP again), it says nothing of the valve"
+        if draft.verdict == "stiction"
+        else ""
+    )
+    return f"the measured stem (mv) follows OP: a linear valve with {lag} fits it best{said}"
+
+
+def _stem_against_loop(check, draft: StictionReport, update: dict) -> str:
+    """The stem's S beside the loop's (``update`` over ``draft``), and which of the two the report shows."""
+    s, s_se = update.get("s_pct", draft.s_pct), update.get("s_se_pct", draft.s_se_pct)
+    if s is None or s_se is None:
+        return f"the stem reads S {check.s_pct:.3g} +- {check.s_se_pct:.2g} %, which the report shows"
+    agree = abs(s - check.s_pct) <= 2 * float(np.hypot(s_se, check.s_se_pct))
+    shown = "the stem's" if check.s_se_pct < s_se else "the loop's, the surer"
+    return (
+        f"the stem reads S {check.s_pct:.3g} +- {check.s_se_pct:.2g} %, the loop {s:.3g} +- {s_se:.2g} %: "
+        f"{'they agree' if agree else 'they differ by more than two errors'}; the report shows {shown}"
+    )
+
+
 def assemble(
     draft: StictionReport,
     sizing: Sizing | None = None,
@@ -98,18 +152,28 @@ def assemble(
     note: str | None = None,
     notes: Sequence[str] = (),
     agent_id: str | None = None,
+    stem=None,
+    stem_note: str | None = None,
 ) -> StictionReport:
     """The report of ``draft`` (``quantify.pipeline``'s, for one window) with what is known beside it.
 
     ``sizing``: the process identified from the loop's window and S, J read under it, used where
     ``needs_sizing(draft)`` (a sticky loop of unknown process); ``sizing_t_end_s``: the end of the
     window it was made from; ``note``: a warning added where its numbers are shown (the agent's
-    re-read); ``notes``: warnings of the record itself (an export's); ``agent_id``: the agent's."""
+    re-read); ``notes``: warnings of the record itself (an export's); ``agent_id``: the agent's.
+    ``stem``: the valve check of the window's measured stem (``quantify.stem``): where it sticks, the verdict and
+    S and J are its; ``stem_note``: why a recorded stem was not read."""
     head, tail, update = [], [], {}
+    kept = list(draft.warnings)
+    read_stem = stem is not None and draft.verdict != "bad_data"
+    from_stem = read_stem and stem.sticky and draft.verdict != "stiction"
+    if from_stem:  # the window's "no friction numbers" gives way to the stem's verdict and numbers
+        update |= stem_fields(stem) | {"estimate_t_end_s": draft.t_end_s}
+        kept = [w for w in kept if not w.startswith(NO_NUMBERS)]
     unknown = draft.process.source == "none"
     sized = sizing is not None and needs_sizing(draft)
     identified = sized and sizing.process is not None
-    if unknown and not identified and draft.verdict == "stiction":
+    if unknown and not identified and draft.verdict == "stiction" and not from_stem:
         head.append(NOT_IDENTIFIED)
         tail.append(NOT_READ_WARNING)
     if sized and not identified:  # the identification itself failed: say why
@@ -125,6 +189,8 @@ def assemble(
         )  # fmt: skip
         if not sizing.read:
             tail.append(NOT_READ_PREFIX + sizing.why)
+        elif from_stem:
+            tail.append("S and J under the identified process not shown: the measured stem's are")
         else:
             s, j, s_se, j_se = (opt(v) for v in (sizing.s_pct, sizing.j_pct, sizing.s_se_pct, sizing.j_se_pct))
             fs, fd, fs_se, fd_se = (opt(v) for v in sizing.fs_fd_pct())
@@ -137,9 +203,17 @@ def assemble(
             tail.extend(sizing.doubts)
             if note:
                 tail.append(note)
+    if read_stem:
+        tail.append(stem_warning(stem, draft))
+        if stem.sticky and not from_stem:  # called sticky from OP and PV too: the surer reading speaks
+            tail.append(_stem_against_loop(stem, draft, update))
+            if update.get("s_se_pct", draft.s_se_pct) is None or stem.s_se_pct < update.get("s_se_pct", draft.s_se_pct):
+                update |= stem_fields(stem) | {"estimate_t_end_s": draft.t_end_s}
+    if stem_note:
+        tail.append(stem_note)
     tail.extend(notes)
-    if head or tail:
-        update["warnings"] = [*head, *draft.warnings, *tail]
+    if head or tail or len(kept) != len(draft.warnings):
+        update["warnings"] = [*head, *kept, *tail]
     if agent_id is not None:
         update["agent_id"] = agent_id
     return draft.model_copy(update=update) if update else draft

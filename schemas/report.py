@@ -108,11 +108,12 @@ class StictionReport(BaseModel):
     fd_se_pct: float | None = Field(description="uncertainty (one standard error) of fd_pct")
     period_s: float | None = Field(description="oscillation period from the autocorrelation function")
     denoised: bool = Field(description="the INLPCA denoiser ran on this window")
-    method: Literal["physical", "combined", "learned", "thesis", "identified", "none"] = Field(
+    method: Literal["physical", "combined", "learned", "thesis", "identified", "stem", "none"] = Field(
         description="which estimate fs_pct/fd_pct come from: the physical reading of the slips, the physical and "
         "the learned readings weighed by their errors where they agree (both blocks shown), the learned "
         "cycle predictor, the thesis chain, the fit under the process identified from the record "
-        "(stiction quantify), or none"
+        "(stiction quantify), the valve's measured stem position where the export records it and it sticks "
+        "(stiction quantify; the verdict is then the stem's), or none"
     )
     thesis: Estimate = Field(description="the thesis chain's estimate (ACF, INLPCA, 100-sample OP MLP)")
     physical: Estimate | None = Field(

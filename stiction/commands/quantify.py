@@ -18,7 +18,7 @@ from stiction.schemas.errors import StictionError, as_stiction_error
 
 log = logging.getLogger(__name__)
 
-FIELDS = ("op", "pv", "t", "sp", "mode")
+FIELDS = ("op", "pv", "t", "sp", "mv", "mode")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -132,6 +132,9 @@ class _Item:
     """The sizing this window's report shows (done here or on a worker), or None."""
     job_t_end_s: float | None = None
     fresh: bool = False
+    stem: object = None
+    """The valve check of the window's measured stem (``quantify.stem``), or None."""
+    stem_note: str | None = None
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,7 @@ def quantified(
     ``in_order=False``: within a chunk, the windows that wait for no sizing come first, so that
     their caller's work (drawing them) overlaps the sizings running on the workers."""
     from stiction.quantify.pipeline import Quantifier, Window
+    from stiction.quantify.stem import stem_check
     from stiction.quantify.window import MIN_SAMPLES
 
     if args.size_every < 0:
@@ -179,11 +183,12 @@ def quantified(
                     interpolated=export.interpolated,
                 )
                 result = quantifier.results([window], details=details)[0]
+                stem, stem_note = stem_check(export.op, export.mv, export.ts_s)
             except Exception as e:  # one bad file (or a fault of ours in one) never stops the others
                 log.debug("quantifying %s failed", path, exc_info=True)
                 failed.append(exports.report_error(command, path, as_stiction_error(e)))
                 continue
-            pending.append(_Item(path, export, window, result))
+            pending.append(_Item(path, export, window, result, stem=stem, stem_note=stem_note))
             if len(pending) >= CHUNK:
                 pool = _size(args, pending, sized, pool)
                 yield from _finished(started, in_order)
@@ -260,6 +265,7 @@ def _finished(items: list[_Item], in_order: bool = True) -> Iterator[Quantified]
     for item in items:
         sizing = item.job.result() if item.job is not None else None
         note = None if item.fresh else CARRIED
-        report = assemble(item.result.draft, sizing, item.job_t_end_s, note, notes=item.export.warnings)
+        report = assemble(item.result.draft, sizing, item.job_t_end_s, note, notes=item.export.warnings,
+                          stem=item.stem, stem_note=item.stem_note)  # fmt: skip
         details = with_model(item.result.details, sizing if item.fresh else None)
         yield Quantified(item.path, item.export, item.window, report, details)

@@ -203,9 +203,10 @@ def test_rows_of_separators_alone_are_skipped_as_blank_lines_are(tmp_path):
 
 
 def test_a_mode_column_in_words_is_read_and_an_open_loop_stretch_named(tmp_path):
-    """Control systems write the mode as a word (AUTO, MAN, CAS, ...): read, with the samples in an open loop counted."""
+    """Control systems write the mode as a word (AUTO, MAN, CAS, ...): read, the samples in an open loop counted."""
     words = ["AUTO"] * 100 + ["man"] * 30 + ["Cas"] * 70
-    text = "t,op,pv,mode\n" + "".join(f"{k},{50 + np.sin(k):.3f},{40 + np.cos(k):.3f},{w}\n" for k, w in enumerate(words))
+    rows = "".join(f"{k},{50 + np.sin(k):.3f},{40 + np.cos(k):.3f},{w}\n" for k, w in enumerate(words))
+    text = "t,op,pv,mode\n" + rows
     e = read_export(_write(tmp_path, text))
     assert e.mode.tolist() == [1.0] * 100 + [0.0] * 30 + [1.0] * 70
     said = [w for w in e.warnings if "mode column" in w]

@@ -28,10 +28,11 @@ def _two_parameter_stem(op: np.ndarray, s: float, j: float) -> np.ndarray:
 
 
 def _op(n: int, seed: int) -> np.ndarray:
-    """A controller's output: a slow cycle of 40 % with a wander on it, turning now and then."""
+    """A controller's output: a slow cycle of 40 % with a wander on it and the jitter its proportional action puts
+    on PV's noise, so that it turns every few samples."""
     rng = np.random.default_rng(seed)
     t = np.arange(n, dtype=float)
-    return 50 + 20 * np.sin(2 * np.pi * t / 150) + 0.3 * np.cumsum(rng.normal(0.0, 0.3, n))
+    return 50 + 20 * np.sin(2 * np.pi * t / 150) + np.cumsum(rng.normal(0.0, 0.3, n)) + rng.normal(0.0, 0.1, n)
 
 
 def test_the_lanes_sums_give_each_valves_calibrated_fit_as_one_path_and_a_least_squares_do():

@@ -159,3 +159,58 @@ def test_sizing_on_worker_processes_gives_the_same_reports_in_the_same_order(tmp
     assert out["1"].out == out["2"].out and "broken.csv" in out["2"].err
     reports = [json.loads(line) for line in out["2"].out.splitlines()]
     assert len(reports) == len(list(tmp_path.glob("p*.csv"))) and any(r["method"] == "identified" for r in reports)
+
+
+def _columns(path, keep, rename=None):
+    """The export at ``path`` with only the columns ``keep`` (in that order), ``rename`` mapping a kept column to a
+    source column's values (an ``mv`` that repeats ``op``)."""
+    import csv
+
+    rows = list(csv.DictReader(path.open()))
+    rename = rename or {}
+    return "\n".join([",".join(keep)] + [",".join(r[rename.get(k, k)] for k in keep) for r in rows]) + "\n"
+
+
+@pytest.fixture(scope="module")
+def flow(tmp_path_factory):
+    """A fast flow loop under a slow PI and a wandering load, its valve of S 2.9 %, J 0.42 % (fs 4, fd 3): the
+    stem slips now and then, no cycle forms; the export records the stem position (``mv``) as ``simulate`` writes."""
+    d = tmp_path_factory.mktemp("flow")
+    main(["simulate", "--fs-pct", "4", "--fd-pct", "3", "--process-gain", "1", "--process-tau-s", "5", "--kc", "0.3",
+          "--ti-s", "20", "--disturbance", "brownian", "--coefficient", "0.5", "--seed", "1", "--duration-s", "3600",
+          "--out", str(d / "with_mv.csv")])  # fmt: skip
+    source = d / "with_mv.csv"
+    (d / "without_mv.csv").write_text(_columns(source, ["t_s", "op", "pv", "sp"]))
+    (d / "mv_is_op.csv").write_text(_columns(source, ["t_s", "op", "pv", "sp", "mv"], rename={"mv": "op"}))
+    main(["simulate", "--fs-pct", "0", "--fd-pct", "0", "--process-gain", "1", "--process-tau-s", "5", "--kc", "0.3",
+          "--ti-s", "20", "--osc-period-s", "120", "--osc-amplitude-pct", "2", "--seed", "2", "--duration-s", "3600",
+          "--out", str(d / "healthy.csv")])  # fmt: skip
+    return d
+
+
+def _reports(capsys, *paths):
+    assert main(["quantify", "--json", *map(str, paths)]) == 0
+    return [json.loads(line) for line in capsys.readouterr().out.strip().splitlines()]
+
+
+def test_a_measured_stem_that_sticks_calls_the_valve_and_gives_its_band(flow, capsys):
+    from stiction.sim.valve import band_and_jump_pct
+
+    s_true, j_true = (float(v) for v in band_and_jump_pct(4.0, 3.0))
+    with_mv, without = _reports(capsys, flow / "with_mv.csv", flow / "without_mv.csv")
+    assert with_mv["verdict"] == "stiction" and with_mv["likely_cause"] == "stiction"
+    assert any(w.startswith("the measured stem (mv) sticks") for w in with_mv["warnings"])
+    assert abs(with_mv["s_pct"] - s_true) <= 2 * with_mv["s_se_pct"] and with_mv["s_se_pct"] < 0.5 * s_true
+    assert abs(with_mv["j_pct"] - j_true) <= 2 * with_mv["j_se_pct"]
+    assert not any("stem" in w for w in without["warnings"])  # no stem recorded: OP and PV alone
+    if without["verdict"] != "stiction":  # the stem saw what the loop did not: its verdict and numbers speak
+        assert with_mv["method"] == "stem" and any("OP and PV alone said" in w for w in with_mv["warnings"])
+        assert not any(w.startswith("no friction numbers") for w in with_mv["warnings"])
+
+
+def test_a_stem_that_follows_op_leaves_the_verdict_to_op_and_pv_and_an_mv_that_is_op_is_no_stem(flow, capsys):
+    healthy, mv_is_op, without = _reports(capsys, flow / "healthy.csv", flow / "mv_is_op.csv", flow / "without_mv.csv")
+    assert healthy["verdict"] != "stiction" and healthy["method"] != "stem"
+    assert any(w.startswith("the measured stem (mv) follows OP") for w in healthy["warnings"])
+    assert any("repeats OP" in w for w in mv_is_op["warnings"])
+    assert mv_is_op["verdict"] == without["verdict"] and mv_is_op["s_pct"] == without["s_pct"]
