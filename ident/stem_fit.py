@@ -24,7 +24,10 @@ from stiction.ident.valve_model import drive_of
 from stiction.sim.two_parameter import choudhury_step
 
 LAGS_TS = (0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 3.0, 5.0)
-"""The actuator lags searched, in sample times (as ``ident.valve_check``)."""
+"""The actuator lags the sticky valve's coarse grid searches, in sample times (as ``ident.valve_check``)."""
+FINE_LAG_STEP_TS = 0.1
+FINE_LAG_MAX_TS = 6.0
+"""The linear valve's lags, and the sticky valve's about its best: a tenth of a sample apart, up to six samples."""
 S_POINTS = 36
 S_LOWEST_SHARE = 0.002
 """The bands searched: ``S_POINTS`` on a log grid from this share of OP's range to its whole range."""
@@ -118,14 +121,15 @@ def fit_stem(op_pct: np.ndarray, mv_pct: np.ndarray, ts_s: float) -> StemFit:
     n = op.size
     first = max(1, int(WARMUP_SHARE * n))
     scored = n - 1 - first
-    # the drives: OP over each interval through each lag, its stem a sample later (as ``ident.friction``), half a
-    # sample later or at once (the record's stamps taken after the control step): how a historian stamps the stem
-    # against OP is not known
-    lags = np.asarray(LAGS_TS, float)
-    late = lagged(op, lags * ts_s, ts_s)
+    # the drives: OP over each interval through each lag (a tenth of a sample apart), its stem a sample later (as
+    # ``ident.friction``), half a sample later or at once (the record's stamps taken after the control step): how a
+    # historian stamps the stem against OP is not known.  A lag off the grid would read as a band.
+    fine = np.round(np.arange(0.0, FINE_LAG_MAX_TS + 1e-9, FINE_LAG_STEP_TS), 6)
+    late = lagged(op, fine * ts_s, ts_s)
     early = np.concatenate([late[:, 1:], late[:, -1:]], axis=1)
     drives = np.vstack([late, 0.5 * (late + early), early])
-    lags = np.tile(lags, 3)
+    lags = np.tile(fine, 3)
+    coarse = np.flatnonzero(np.isin(np.round(lags, 6), np.round(np.asarray(LAGS_TS, float), 6)))
     span = max(float(np.ptp(op)), 1e-9)
     bands = span * np.geomspace(S_LOWEST_SHARE, 1.0, S_POINTS)
 
@@ -134,19 +138,20 @@ def fit_stem(op_pct: np.ndarray, mv_pct: np.ndarray, ts_s: float) -> StemFit:
     def run(lag_idx, s, j):
         return scores(columns, lag_idx, stem, s, j, first)
 
-    # the linear valve: every lag, S = J = 0
+    # the linear valve: every lag and alignment, S = J = 0
     lin_rss, lin_off, lin_gain = run(np.arange(lags.size), np.zeros(lags.size), np.zeros(lags.size))
     lin = int(np.argmin(lin_rss))
     linear_ic = float(criterion(lin_rss[lin], PARAMS_LINEAR, scored))
     # the sticky valve: a coarse grid, then a finer one about its best
-    lag_i, s, j = _grid(np.arange(lags.size), bands, np.asarray(J_SHARES))
+    lag_i, s, j = _grid(coarse, bands, np.asarray(J_SHARES))
     rss, _, _ = run(lag_i, s, j)
     best = int(np.argmin(rss))
     ratio = bands[1] / bands[0]
     fine_bands = s[best] * np.geomspace(1 / ratio, ratio, 9)
     share = j[best] / s[best]
     fine_shares = np.clip(share + np.linspace(-0.2, 0.2, 9), 0.0, 1.0)
-    lag_i, s, j = _grid(np.arange(lags.size), fine_bands, np.unique(fine_shares))
+    near = np.flatnonzero(np.abs(lags - lags[lag_i[best]]) <= 1.0 + 1e-9)  # every alignment, within a sample's lag
+    lag_i, s, j = _grid(near, fine_bands, np.unique(fine_shares))
     rss, offset, gain = run(lag_i, s, j)
     best = int(np.argmin(rss))
     sticky_ic = float(criterion(rss[best], PARAMS_STICKY, scored))

@@ -164,6 +164,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "(Choudhury's valve under SIMC-tuned flows and levels; --loops per cause)",
     )
     z.add_argument("--json", action="store_true")
+    v = sub.add_parser("stem", help="the valve checked against its measured stem, on simulated stems of three kinds")
+    v.add_argument("--stems", type=int, default=30, help="stems of each kind (two-parameter, physical, linear)")
+    v.add_argument("--seed", type=int, default=2718, help="321 and 654 chose the model error (ident.valve_check)")
+    v.add_argument("--json", action="store_true")
     a = sub.add_parser("accuracy", help="methods x test sets: mean absolute error and time per loop")
     a.add_argument("--realisations", type=int, default=5, help="fresh realisations of each of C1-C10")
     a.add_argument("--seeds", type=int, default=20, help="seeds of each of N1-N10")
@@ -215,6 +219,14 @@ def _sizing(args) -> None:
     if args.loops < 1 or args.workers < 1:
         raise InputError(f"--loops {args.loops} --workers {args.workers}: need at least 1 each")
     _emit(args, _host(bench_sizing(args.loops, args.seed, args.workers, args.simulator)), print_table)
+
+
+def _stem(args) -> None:
+    from stiction.bench.stem import bench_stem, print_table
+
+    if args.stems < 1:
+        raise InputError(f"--stems {args.stems}: need at least 1")
+    _emit(args, _host(bench_stem(args.stems, args.seed)), print_table)
 
 
 def _detect(args) -> None:
@@ -331,5 +343,6 @@ BENCHMARKS = {
     "measured": _measured,
     "detect": _detect,
     "sizing": _sizing,
+    "stem": _stem,
 }
 """Each subcommand's runner: it runs its benchmark and prints (or ``--json``: one object)."""
