@@ -230,7 +230,7 @@ class AgentCore:
                 self.reject("gap", f"{loop_id} seq {batch.seq} > {w.next_seq}: window restarted")
                 w = state.window = RollingWindow(self.settings.window_samples, batch.ts_s)
                 state.new_since_report, state.filled, state.reading = 0, None, None
-        w.update(batch.seq, batch.t0_s, batch.op, batch.pv, batch.sp)
+        w.update(batch.seq, batch.t0_s, batch.op, batch.pv, batch.sp, batch.mv)
         state.process = batch.process
         state.new_since_report += len(batch.op)
         state.arrived_at = now_s
@@ -266,10 +266,11 @@ class AgentCore:
         merged = RollingWindow(self.settings.window_samples, batch.ts_s)
         start = end if w.next_seq is None else w.next_seq - w.count
         n = start - batch.seq
-        merged.update(batch.seq, batch.t0_s, batch.op[:n], batch.pv[:n], None if batch.sp is None else batch.sp[:n])
+        sp, mv = (None if x is None else x[:n] for x in (batch.sp, batch.mv))
+        merged.update(batch.seq, batch.t0_s, batch.op[:n], batch.pv[:n], sp, mv)
         if w.next_seq is not None:
             op, pv = w.get()
-            merged.update(start, w.t_end_s - (w.count - 1) * w.ts_s, op, pv, w.get_sp())
+            merged.update(start, w.t_end_s - (w.count - 1) * w.ts_s, op, pv, w.get_sp(), w.get_mv())
         state.window = merged
         state.process = state.process or batch.process
         after = (merged.t_end_s - state.reported_to_s) / merged.ts_s
@@ -291,7 +292,7 @@ class AgentCore:
         w = state.window
         start, missing = w.next_seq, batch.seq - w.next_seq
         op, pv = w.get()
-        sp = w.get_sp()
+        sp, mv = w.get_sp(), w.get_mv()
         frac = np.arange(1, missing + 1) / (missing + 1)
         w.update(
             start,
@@ -299,6 +300,7 @@ class AgentCore:
             op[-1] + frac * (batch.op[0] - op[-1]),
             pv[-1] + frac * (batch.pv[0] - pv[-1]),
             None if sp is None or batch.sp is None else sp[-1] + frac * (batch.sp[0] - sp[-1]),
+            None if mv is None or batch.mv is None else mv[-1] + frac * (batch.mv[0] - mv[-1]),
         )
         state.filled = (state.filled or []) + [(start, missing)]
         state.new_since_report += missing
@@ -366,7 +368,8 @@ class AgentCore:
         """The loop's samples held, as the pipeline's ``Window``."""
         w, full = state.window, self.settings.window_samples
         op, pv = w.get()
-        return Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process, sp=w.get_sp(), full_samples=full, **extra)
+        return Window(loop_id, op, pv, w.ts_s, w.t_end_s, state.process, sp=w.get_sp(), full_samples=full,
+                      mv=w.get_mv(), **extra)  # fmt: skip
 
     def window_of(self, loop_id: str) -> Window | None:
         """The owned loop's window as it stands (for the background sizing), or None."""

@@ -26,6 +26,7 @@ from stiction.agent.sizing_plan import SizingPlan
 from stiction.quantify.assembly import assemble, needs_sizing
 from stiction.quantify.identified import lower_priority, size_in_worker, sizing_pool
 from stiction.quantify.pipeline import Quantifier, warm_up
+from stiction.quantify.stem import stem_check
 from stiction.schemas import keys
 from stiction.schemas.errors import StictionError, as_stiction_error
 from stiction.schemas.messages import AgentHealth, LoopTruth
@@ -129,6 +130,7 @@ class AgentService:
         self.sizing = SizingPlan(settings.size_every_s) if settings.size_every_s > 0 else None
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
+        self._stems: dict = {}  # future -> loop_id: the measured stems being checked
         self._size_queue: dict[str, None] = {}  # loops waiting for the worker, in the order they last asked
         self._shard_subs: dict[str, object] = {}  # key expression -> subscriber (a channel)
         self._spec_samples = None  # the subscriber (a channel) to the spec's sample key
@@ -279,6 +281,7 @@ class AgentService:
         if self.core.set_agents(alive):
             self._sync_shards()
         self._collect_sizings()
+        self._collect_stems()
         while self._reports_seen:  # before any window is due: a report made elsewhere is never made twice
             self.core.seen_report(*self._reports_seen.popleft())
         clock = time.thread_time()
@@ -334,6 +337,8 @@ class AgentService:
             else:
                 if self.sizing.wanted(draft, time.monotonic()):
                     self._size_or_queue(w)
+                if self.sizing.stem_wanted(w.loop_id, w.mv is not None, len(w.op), time.monotonic()):
+                    self._check_stem(w)
                 report = self.sizing.apply(draft, self.settings.agent_id)
                 if needs_sizing(draft):
                     self.drafts[w.loop_id] = draft
@@ -377,6 +382,25 @@ class AgentService:
         future = self._size_pool.submit(size_in_worker, op, pv, ts_s, loop_id, sp)
         self._sizings[future] = (loop_id, t_end_s)
         self.sizing.started(loop_id, len(op), partial)
+
+    def _check_stem(self, w) -> None:
+        """Check the loop's measured stem against OP on the worker (copies: the window's arrays are views)."""
+        if self._size_pool is None:
+            self._size_pool = sizing_pool(1, initializer=lower_priority)
+        future = self._size_pool.submit(stem_check, np.array(w.op), np.array(w.mv), float(w.ts_s))
+        self._stems[future] = w.loop_id
+        self.sizing.stem_started(w.loop_id)
+
+    def _collect_stems(self) -> None:
+        """Stem checks that came back: kept for the loop's next reports."""
+        for future in [f for f in self._stems if f.done()]:
+            loop_id = self._stems.pop(future)
+            try:
+                result = future.result()
+            except Exception:  # a worker that died or failed costs this check only
+                log.exception("background check of %s's measured stem failed", loop_id)
+                result = None
+            self.sizing.stem_finished(loop_id, result, time.monotonic())
 
     def _collect_sizings(self) -> None:
         """Sizings that came back: kept for the loop's next reports, and put into its latest report

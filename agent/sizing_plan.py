@@ -8,7 +8,9 @@ at a time, and every report of the loop while it is called sticky carries the la
 from ``MIN_PARTIAL_SAMPLES`` on (a 200-sample start often holds too few slips), and again once
 the window is full or twice as long; where the partial window read nothing, already at half as
 long again (a stream that ends before its window fills, as a replayed 751-sample export does,
-is then still sized on most of its record).  Pure: no clock, no processes.
+is then still sized on most of its record).  A loop whose stream records the valve's position has its
+stem checked against OP the same way (``quantify.stem``, a fraction of a second a window), once every
+``refresh_s`` whatever its verdict, every report carrying the last check.  Pure: no clock, no processes.
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ class SizingPlan:
         self.latest: dict[str, Sized] = {}
         self.in_flight: dict[str, tuple[int, bool]] = {}  # loop -> (samples, partial) of the window being sized
         self.done = 0
+        self.stems: dict[str, tuple] = {}  # loop -> (its measured stem's last check or None, why not read, when)
+        self.stems_in_flight: set[str] = set()
 
     def has_room(self) -> bool:
         """Whether another sizing may start now (else the caller queues the window)."""
@@ -74,13 +78,32 @@ class SizingPlan:
         failed = Sizing(nan, nan, nan, nan, None, 0, "the background identification failed")
         self.latest[loop_id] = Sized(sizing if sizing is not None else failed, t_end_s, now_s, n_samples, partial)
 
+    def stem_wanted(self, loop_id: str, has_mv: bool, n_samples: int, now_s: float) -> bool:
+        """Whether this loop's measured stem should be checked against OP now (``quantify.stem``): a loop whose
+        window records the valve's position, once every ``refresh_s``, from ``MIN_PARTIAL_SAMPLES`` samples on,
+        whatever its verdict (the stem can show a valve OP and PV do not)."""
+        if not has_mv or n_samples < MIN_PARTIAL_SAMPLES or loop_id in self.stems_in_flight:
+            return False
+        last = self.stems.get(loop_id)
+        return last is None or now_s - last[2] >= self.refresh_s
+
+    def stem_started(self, loop_id: str) -> None:
+        self.stems_in_flight.add(loop_id)
+
+    def stem_finished(self, loop_id: str, result: tuple | None, now_s: float) -> None:
+        """A stem check came back: (check, why not read), or None where the worker failed (tried again later)."""
+        self.stems_in_flight.discard(loop_id)
+        check, note = result if result is not None else (None, "the background check of the measured stem failed")
+        self.stems[loop_id] = (check, note, now_s)
+
     def apply(self, draft: StictionReport, agent_id: str | None = None) -> StictionReport:
         """The report of a pipeline's draft (``quantify.assembly``), with the loop's last sizing where
-        it is of a sticky loop of unknown process."""
+        it is of a sticky loop of unknown process, and its measured stem's last check where it has one."""
         last = self.latest.get(draft.loop_id)
+        check, note, _ = self.stems.get(draft.loop_id, (None, None, 0.0))
         if last is None:
-            return assemble(draft, agent_id=agent_id)
-        return assemble(draft, last.sizing, last.t_end_s, NOTE, agent_id=agent_id)
+            return assemble(draft, agent_id=agent_id, stem=check, stem_note=note)
+        return assemble(draft, last.sizing, last.t_end_s, NOTE, agent_id=agent_id, stem=check, stem_note=note)
 
 
 NOTE = (

@@ -26,15 +26,18 @@ def _same(held: np.ndarray, new: np.ndarray) -> bool:
 
 
 class RollingWindow:
-    """The last ``size`` samples of OP and PV (and SP where the stream has it), numbered by ``seq``.
+    """The last ``size`` samples of OP and PV (and SP, the valve position MV, where the stream has them), numbered by
+    ``seq``.
 
     ``update`` appends a batch that continues the stream; ``get`` returns the
-    window oldest first, ``get_sp`` its setpoint (None unless every sample held has one);
+    window oldest first, ``get_sp`` its setpoint and ``get_mv`` its valve position (None unless every sample held has
+    one);
     ``snapshot`` is a plain dict for inspection.  A setpoint that never moves costs one number,
     not a ring.
     """
 
-    __slots__ = ("size", "ts_s", "_op", "_pv", "count", "next_seq", "t_end_s", "_sp", "_sp_const", "_sp_missing_until")
+    __slots__ = ("size", "ts_s", "_op", "_pv", "count", "next_seq", "t_end_s", "_sp", "_sp_const", "_sp_missing_until",
+                 "_mv", "_mv_missing_until")  # fmt: skip
 
     def __init__(self, size: int, ts_s: float):
         self.size = size
@@ -47,10 +50,14 @@ class RollingWindow:
         self._sp: np.ndarray | None = None  # allocated once the setpoint moves
         self._sp_const: float | None = None
         self._sp_missing_until = 0  # samples before this seq may lack a setpoint
+        self._mv: np.ndarray | None = None  # allocated once a valve position arrives: most streams have none
+        self._mv_missing_until = 0
 
-    def update(self, seq: int, t0_s: float, op, pv, sp=None) -> RollingWindow:
+    def update(self, seq: int, t0_s: float, op, pv, sp=None, mv=None) -> RollingWindow:
         n = len(op)
         self._update_sp(seq, n, sp)
+        if mv is not None or self._mv is not None:
+            self._update_mv(seq, n, mv)
         if n <= 4:  # a sample or a few a message (1 Hz streams): plain indexing, no array set-up
             for k in range(n):
                 j = (seq + k) % self.size
@@ -88,6 +95,22 @@ class RollingWindow:
             self._sp = np.full(self.size, const, DTYPE)
         sp = np.asarray(sp, float)[-self.size :]
         self._sp[self._tail(seq, n, sp.size)] = sp
+
+    def _update_mv(self, seq: int, n: int, mv) -> None:
+        if mv is None:
+            self._mv_missing_until = seq + n
+            return
+        if self._mv is None:
+            self._mv = np.zeros(self.size, DTYPE)
+            self._mv_missing_until = max(self._mv_missing_until, seq)  # the samples before had none
+        mv = np.asarray(mv, float)[-self.size :]
+        self._mv[self._tail(seq, n, mv.size)] = mv
+
+    def get_mv(self) -> np.ndarray | None:
+        """The valve position of the samples held, oldest first; None where any of them had none."""
+        if self._mv is None or self.next_seq is None or self.next_seq - self.count < self._mv_missing_until:
+            return None
+        return self._mv[self._held()]
 
     def get_sp(self) -> np.ndarray | None:
         """The setpoint of the samples held, oldest first; None where any of them had none."""

@@ -95,6 +95,9 @@ class Window:
     """The agent's full window; a shorter window is a new loop's partial first window."""
     interpolated: int = 0
     """Samples filled in across short gaps of the stream."""
+    mv: np.ndarray | None = None
+    """The valve's position, where the stream records it (a positioner's travel feedback): the agent checks the valve
+    against it in the background (``quantify.stem``); the pipeline does not read it."""
     carry: Reading | None = None
     """A recent window's friction reading of this loop: where this window is still called sticky, its
     report carries that reading instead of running the INLPCA and the models again (the agent's

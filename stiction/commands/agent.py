@@ -42,8 +42,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=60.0,
         metavar="MINUTES",
-        help="a loop called sticky whose process is unknown has it identified and S and J read under it, in the "
-        "background on one worker of lowered priority, once in this many minutes (default 60; 0: never)",
+        help="a loop called sticky whose process is unknown has it identified and S and J read under it, and a loop "
+        "whose stream carries the valve position (mv) has its stem checked against OP, in the background on one "
+        "worker of lowered priority, once in this many minutes (default 60; 0: never)",
     )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")

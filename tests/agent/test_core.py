@@ -124,6 +124,20 @@ def test_a_new_loop_reports_a_partial_window_first_then_grows_to_the_full_one():
     assert sizes == [170, 220, 270, 300, 300]  # every 50 new samples, the window never beyond 300
 
 
+def test_the_due_window_carries_the_streamed_valve_position_through_a_short_gap_and_an_inherited_history():
+    core = _core(max_fill_samples=5)
+    for seq in range(0, 60, 10):
+        core.ingest(KEY, _payload(seq, mv=list(np.arange(seq, seq + 10) + 0.5)), JSON, 0.0)
+    core.ingest(KEY, _payload(63, n=37, mv=list(np.arange(63, 100) + 0.5)), JSON, 0.0)  # seq 60..62 missing
+    (w, _), *_ = _due(core)
+    np.testing.assert_allclose(w.mv, np.arange(0, 100) + 0.5)  # the gap's stem drawn straight across it
+    key = _sharded_key("L1")
+    heir = _core()
+    heir.ingest(key, _payload(90, n=10, mv=[1.0] * 10), JSON, 1.0)
+    heir.ingest(key, _payload(0, n=92, mv=[2.0] * 92), JSON, 2.0, history=True)  # the publisher's, with its stem
+    np.testing.assert_array_equal(heir.loops["L1"].window.get_mv(), [2.0] * 90 + [1.0] * 10)
+
+
 def test_a_short_gap_is_interpolated_and_counted_a_long_one_restarts_the_window():
     core = AgentCore("a1", CoreSettings(window_samples=100, report_every_samples=200, max_fill_samples=5))
     core.ingest(KEY, _payload(0, n=50), JSON, 0.0)  # op = seq

@@ -93,3 +93,23 @@ def test_a_partial_window_that_read_nothing_is_sized_again_at_half_as_long_again
     plan.finished("L1", Sizing(1.0, 0.2, 0.3, 0.4, PROCESS, 4), 19.0, 2.0)  # read: then twice as long, or full
     assert not plan.wanted(_report("L1").model_copy(update={"n_samples": 1125, "partial": True}), 3.0)
     assert plan.wanted(_report("L1").model_copy(update={"n_samples": 1000, "partial": False}), 3.0)
+
+
+def test_a_loop_whose_stream_records_its_stem_has_it_checked_whatever_its_verdict_and_its_reports_carry_it():
+    from stiction.ident.valve_check import ValveCheck
+
+    plan = SizingPlan(refresh_s=600.0)
+    assert not plan.stem_wanted("L1", False, 1000, 0.0)  # no valve position recorded
+    assert not plan.stem_wanted("L1", True, 200, 0.0)  # a new loop's first samples: too few yet
+    assert plan.stem_wanted("L1", True, 1000, 0.0)
+    plan.stem_started("L1")
+    assert not plan.stem_wanted("L1", True, 1000, 1.0)  # one check a loop at a time
+    sticky = ValveCheck(True, 120.0, 2.0, 0.5, 1.0, 1.0, 0.0, 0.1, 0.4, 0.4, "two_parameter")
+    plan.stem_finished("L1", (sticky, None), now_s=10.0)
+    assert not plan.stem_wanted("L1", True, 1000, 600.0) and plan.stem_wanted("L1", True, 1000, 610.0)
+    r = plan.apply(_report("L1", verdict="no_oscillation"))  # OP and PV saw no fault: the stem did
+    assert r.verdict == "stiction" and r.method == "stem" and r.s_pct == 2.0 and r.s_se_pct == 0.4
+    assert any(w.startswith("the measured stem (mv) sticks") for w in r.warnings)
+    plan.stem_finished("L2", None, now_s=10.0)  # a worker that failed: said, the verdict left alone
+    r2 = plan.apply(_report("L2", verdict="no_oscillation"))
+    assert r2.verdict == "no_oscillation" and any("measured stem failed" in w for w in r2.warnings)

@@ -39,3 +39,17 @@ def test_the_setpoint_is_kept_beside_the_window_and_costs_nothing_while_it_stand
     assert w.get_sp() is None
     w.update(130, 130.0, np.zeros(100), np.zeros(100), np.full(100, 52.0))  # slid out of the window
     assert np.array_equal(w.get_sp(), np.full(100, 52.0))
+
+
+def test_the_valve_position_is_kept_beside_the_window_only_where_the_stream_has_it():
+    w = RollingWindow(100, 1.0)
+    w.update(0, 0.0, np.zeros(60), np.zeros(60))
+    assert w._mv is None and w.get_mv() is None  # a stream without it costs no ring
+    w.update(60, 60.0, np.zeros(50), np.zeros(50), mv=np.arange(60.0, 110.0))
+    assert w.get_mv() is None  # the window still holds samples that had none
+    w.update(110, 110.0, np.zeros(60), np.zeros(60), mv=np.arange(110.0, 170.0))
+    assert np.array_equal(w.get_mv(), np.arange(70.0, 170.0))  # the last 100, oldest first
+    w.update(170, 170.0, np.zeros(5), np.zeros(5))  # a batch without it
+    assert w.get_mv() is None
+    w.update(175, 175.0, np.zeros(100), np.zeros(100), mv=np.full(100, 3.0))
+    assert np.array_equal(w.get_mv(), np.full(100, 3.0))
