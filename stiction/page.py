@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from stiction.ranking import ORDER, rank_key
+from stiction.ranking import ORDER, SharedCycle, rank_key, shared_cycles
 from stiction.schemas.errors import InputError
 from stiction.schemas.report import StictionReport
 
@@ -135,10 +135,12 @@ def _process(r: StictionReport) -> str:
     return "unknown" if p.kind == "unknown" else p.kind.replace("_", "-") + f" ({p.source})"
 
 
-def _rows(entries: list[LoopEntry]) -> list[dict]:
+def _rows(entries: list[LoopEntry], cycles: list[SharedCycle] = ()) -> list[dict]:
     rows = []
+    shared = {lid: g for g in cycles for lid in g.loop_ids}
     for k, e in enumerate(sorted(entries, key=lambda e: rank_key((e.source, e.report))), start=1):
         r = e.report
+        steps = next_steps(r) + ([f"Shares its cycle: {shared[r.loop_id].text()}."] if r.loop_id in shared else [])
         rows.append(
             {
                 "rank": k,
@@ -153,7 +155,7 @@ def _rows(entries: list[LoopEntry]) -> list[dict]:
                 "j": _pm(r.j_pct, r.j_se_pct),
                 "process": _process(r),
                 "checks": ", ".join(r.checks),
-                "steps": next_steps(r),
+                "steps": steps,
                 "figure": base64.b64encode(e.figure_png).decode("ascii") if e.figure_png else None,
                 "json": r.model_dump_json(indent=1),
             }
@@ -172,13 +174,15 @@ def render(entries: list[LoopEntry], source: str, generated: datetime | None = N
         autoescape=jinja2.select_autoescape(("html", "j2")),
         undefined=jinja2.StrictUndefined,
     )
-    rows = _rows(entries)
+    cycles = shared_cycles([e.report for e in entries])
+    rows = _rows(entries, cycles)
     counts = Counter(row["r"].verdict for row in rows)
     crew = [row for row in rows if row["r"].verdict == "stiction"][:CREW_FIRST]
     return env.get_template("report.html.j2").render(
         rows=rows,
         counts=[(v.replace("_", " "), counts.get(v, 0)) for v in ORDER],
         crew=crew,
+        cycles=[g.text() for g in cycles],
         source=source,
         generated=(generated or datetime.now(UTC)).strftime("%Y-%m-%d %H:%M UTC"),
         version=__version__,

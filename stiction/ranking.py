@@ -2,12 +2,15 @@
 
 Sticky valves first, the widest band S first (a valve job is worth most where the band is
 widest; the stiction probability breaks ties); then loops that oscillate for another reason,
-by amplitude; then loops without oscillation; bad data last, so that it is seen and fixed.
+by amplitude; then loops without oscillation; bad data last, so that it is seen and fixed.  Loops that cycle
+with one period over the same hours are named together (``shared_cycles``): one cause may drive them all, and the
+loop whose own valve reads stickiest is the one to fix first.
 """
 
 from __future__ import annotations
 
 import csv
+from dataclasses import dataclass
 from pathlib import Path
 
 from stiction.schemas.errors import InputError
@@ -15,7 +18,91 @@ from stiction.schemas.report import StictionReport
 
 ORDER = {"stiction": 0, "other_cause": 1, "no_oscillation": 2, "bad_data": 3}
 COLUMNS = ("rank", "loop", "verdict", "stiction_probability", "s_pct", "s_se_pct", "j_pct", "j_se_pct",
-           "stiction_kind", "likely_cause", "amplitude_pct", "period_s", "warnings", "file")  # fmt: skip
+           "stiction_kind", "likely_cause", "amplitude_pct", "period_s", "shared_cycle", "warnings",
+           "file")  # fmt: skip
+PERIOD_SHARE = 0.1
+"""Two loops' cycles are one where their periods differ by at most this share of the shorter."""
+OVERLAP_SHARE = 0.5
+"""... and where their records share at least this share of the shorter one's span (both in calendar time)."""
+CALENDAR_FROM_S = 1e8
+"""A window's end from this many seconds on is a calendar time (seconds since 1970), as exports stamp them."""
+
+
+@dataclass(frozen=True)
+class SharedCycle:
+    """Loops whose oscillations have one period over the same hours: one cause may drive them all (an upstream
+    loop's sticky valve sends its cycle down the line as a square or triangular load, which a downstream loop reads
+    much as it would its own valve's).  ``source``: the member whose own valve reads stickiest (verdict stiction,
+    highest probability), the one to fix first, or None where none is called sticky."""
+
+    loop_ids: tuple[str, ...]
+    period_s: float
+    source: str | None
+    calendar: bool
+    """Whether every member's record is stamped in calendar time (else they are taken to be of the same hours)."""
+
+    def text(self) -> str:
+        others = [lid for lid in self.loop_ids if lid != self.source]
+        same = "over the same hours" if self.calendar else "(no calendar time in their records: if of the same hours)"
+        head = f"{', '.join(self.loop_ids)} cycle at about {self.period_s:.0f} s {same}: one cause may drive them all"
+        if self.source is None:
+            return head + "; none reads as a sticky valve of its own: look upstream, or at a common load"
+        return (f"{head}; {self.source}'s valve reads stickiest: fix it first, then look again at "
+                f"{', '.join(others)}, whose cycle may be its")  # fmt: skip
+
+
+def _span(r: StictionReport) -> tuple[float, float] | None:
+    if r.t_end_s is None or not r.process.sample_time_s:
+        return None
+    return r.t_end_s - r.n_samples * r.process.sample_time_s, r.t_end_s
+
+
+def _together(a: StictionReport, b: StictionReport) -> bool:
+    """One period, and (where both are stamped in calendar time) the same hours."""
+    pa, pb = a.period_s, b.period_s
+    if abs(pa - pb) > PERIOD_SHARE * min(pa, pb):
+        return False
+    sa, sb = _span(a), _span(b)
+    if sa is None or sb is None or min(sa[1], sb[1]) < CALENDAR_FROM_S:
+        return True
+    shared = min(sa[1], sb[1]) - max(sa[0], sb[0])
+    return shared >= OVERLAP_SHARE * min(sa[1] - sa[0], sb[1] - sb[0])
+
+
+def shared_cycles(reports: list[StictionReport]) -> list[SharedCycle]:
+    """The groups of two or more oscillating loops (``stiction`` or ``other_cause``, a period read) that share one
+    cycle (``PERIOD_SHARE``, ``OVERLAP_SHARE``), linked pair by pair; each loop in one group at most."""
+    cycling = [r for r in reports if r.verdict in ("stiction", "other_cause") and r.period_s and r.period_s > 0]
+    parent = list(range(len(cycling)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(len(cycling)):
+        for k in range(i + 1, len(cycling)):
+            if _together(cycling[i], cycling[k]):
+                parent[root(k)] = root(i)
+    groups: dict[int, list[StictionReport]] = {}
+    for i, r in enumerate(cycling):
+        groups.setdefault(root(i), []).append(r)
+    out = []
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        sticky = [r for r in members if r.verdict == "stiction"]
+        source = max(sticky, key=lambda r: (r.stiction_probability or 0.0, r.s_pct or 0.0)).loop_id if sticky else None
+        calendar = all((r.t_end_s or 0.0) >= CALENDAR_FROM_S for r in members)
+        period = float(sorted(r.period_s for r in members)[len(members) // 2])
+        out.append(SharedCycle(tuple(sorted(r.loop_id for r in members)), period, source, calendar))
+    return sorted(out, key=lambda g: g.loop_ids)
+
+
+def cycle_of(groups: list[SharedCycle]) -> dict[str, int]:
+    """Each grouped loop's group, numbered from 1."""
+    return {lid: k for k, g in enumerate(groups, start=1) for lid in g.loop_ids}
 
 
 def rank_key(item: tuple[str, StictionReport]):
@@ -27,13 +114,14 @@ def rank_key(item: tuple[str, StictionReport]):
 
 def ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
     rows = []
+    group = cycle_of(shared_cycles([r for _, r in reports]))
     for k, (path, r) in enumerate(sorted(reports, key=rank_key), start=1):
         rows.append({"rank": k, "loop": r.loop_id, "verdict": r.verdict,
                      "stiction_probability": r.stiction_probability, "s_pct": r.s_pct, "s_se_pct": r.s_se_pct,
                      "j_pct": r.j_pct, "j_se_pct": r.j_se_pct, "stiction_kind": r.stiction_kind,
                      "likely_cause": r.likely_cause,
-                     "amplitude_pct": r.amplitude_pct, "period_s": r.period_s, "warnings": len(r.warnings),
-                     "file": path})  # fmt: skip
+                     "amplitude_pct": r.amplitude_pct, "period_s": r.period_s,
+                     "shared_cycle": group.get(r.loop_id), "warnings": len(r.warnings), "file": path})  # fmt: skip
     return rows
 
 
@@ -54,6 +142,8 @@ def print_ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
               f"{row['likely_cause'] or '-'}")  # fmt: skip
     counts = {v: sum(r["verdict"] == v for r in rows) for v in ORDER}
     print(f"{len(rows)} loops: " + ", ".join(f"{n} {v.replace('_', ' ')}" for v, n in counts.items()))
+    for k, g in enumerate(shared_cycles([r for _, r in reports]), start=1):
+        print(f"shared cycle {k}: {g.text()}")
     return rows
 
 
