@@ -173,7 +173,7 @@ def assemble(
     unknown = draft.process.source == "none"
     sized = sizing is not None and needs_sizing(draft)
     identified = sized and sizing.process is not None
-    if unknown and not identified and draft.verdict == "stiction" and not from_stem:
+    if unknown and not identified and draft.verdict == "stiction":
         head.append(NOT_IDENTIFIED)
         tail.append(NOT_READ_WARNING)
     if sized and not identified:  # the identification itself failed: say why
@@ -189,8 +189,6 @@ def assemble(
         )  # fmt: skip
         if not sizing.read:
             tail.append(NOT_READ_PREFIX + sizing.why)
-        elif from_stem:
-            tail.append("S and J under the identified process not shown: the measured stem's are")
         else:
             s, j, s_se, j_se = (opt(v) for v in (sizing.s_pct, sizing.j_pct, sizing.s_se_pct, sizing.j_se_pct))
             fs, fd, fs_se, fd_se = (opt(v) for v in sizing.fs_fd_pct())
@@ -207,8 +205,12 @@ def assemble(
         tail.append(stem_warning(stem, draft))
         if stem.sticky and not from_stem:  # called sticky from OP and PV too: the surer reading speaks
             tail.append(_stem_against_loop(stem, draft, update))
-            if update.get("s_se_pct", draft.s_se_pct) is None or stem.s_se_pct < update.get("s_se_pct", draft.s_se_pct):
+            loop_se = update.get("s_se_pct", draft.s_se_pct)
+            if loop_se is None or stem.s_se_pct < loop_se:
                 update |= stem_fields(stem) | {"estimate_t_end_s": draft.t_end_s}
+                # the stem's numbers are shown: the loop's "not read" no longer holds
+                head = [w for w in head if w != NOT_IDENTIFIED]
+                tail = [w for w in tail if w != NOT_READ_WARNING]
     if stem_note:
         tail.append(stem_note)
     tail.extend(notes)

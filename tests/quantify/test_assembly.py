@@ -80,3 +80,20 @@ def test_quantify_sized_reads_s_and_j_under_the_identified_process_of_an_unknown
     (report, _), = quantify_sized(quantifier, [unknown])  # fmt: skip
     assert report.process.source == "identified"
     assert NOT_IDENTIFIED not in report.warnings and NOT_READ_WARNING not in report.warnings
+
+
+def test_a_sticky_measured_stem_shown_beside_a_loop_not_read_leaves_no_word_that_s_and_j_were_not_read(
+    quantifier, windows
+):
+    from stiction.ident.valve_check import ValveCheck
+
+    _, unknown = windows
+    draft = quantifier.results([unknown])[0].draft
+    assert draft.verdict == "stiction" and needs_sizing(draft)
+    stem = ValveCheck(True, 80.0, 2.0, 0.5, 0.0, 1.0, 0.0, 0.1, 0.4, 0.4, "two_parameter")
+    r = assemble(draft, stem=stem)  # no sizing (``--no-identify``): the stem's numbers are the report's
+    assert r.method == "stem" and r.s_pct == 2.0 and r.s_se_pct == 0.4
+    assert not set(PROCESS_WARNINGS) & set(r.warnings)
+    assert any(w.startswith("the stem reads S 2 +- 0.4 %, which the report shows") for w in r.warnings)
+    plain = assemble(draft)  # without it, the loop says what it could not read, as before
+    assert set(PROCESS_WARNINGS) <= set(plain.warnings) and plain.method == "none"
