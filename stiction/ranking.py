@@ -20,12 +20,15 @@ ORDER = {"stiction": 0, "other_cause": 1, "no_oscillation": 2, "bad_data": 3}
 COLUMNS = ("rank", "loop", "verdict", "stiction_probability", "s_pct", "s_se_pct", "j_pct", "j_se_pct",
            "stiction_kind", "likely_cause", "amplitude_pct", "period_s", "shared_cycle", "warnings",
            "file")  # fmt: skip
-PERIOD_SHARE = 0.1
-"""Two loops' cycles are one where their periods differ by at most this share of the shorter."""
+PERIOD_SHARE = 0.05
+"""Loops' cycles are one where every period of the group is within this share of its shortest (a limit cycle's period
+reads to a percent or two; a tolerance that chained neighbour to neighbour would join a plant's unrelated loops)."""
 OVERLAP_SHARE = 0.5
-"""... and where their records share at least this share of the shorter one's span (both in calendar time)."""
+"""... and where every two records share at least this share of the shorter one's span, in calendar time."""
 CALENDAR_FROM_S = 1e8
-"""A window's end from this many seconds on is a calendar time (seconds since 1970), as exports stamp them."""
+"""A window's end from this many seconds on is a calendar time (seconds since 1970), as exports and the OPC UA bridge
+stamp them.  Records stamped from zero (a simulation's, some exports') cannot say they are of the same hours, and are
+grouped with none."""
 
 
 @dataclass(frozen=True)
@@ -38,13 +41,11 @@ class SharedCycle:
     loop_ids: tuple[str, ...]
     period_s: float
     source: str | None
-    calendar: bool
-    """Whether every member's record is stamped in calendar time (else they are taken to be of the same hours)."""
 
     def text(self) -> str:
         others = [lid for lid in self.loop_ids if lid != self.source]
-        same = "over the same hours" if self.calendar else "(no calendar time in their records: if of the same hours)"
-        head = f"{', '.join(self.loop_ids)} cycle at about {self.period_s:.0f} s {same}: one cause may drive them all"
+        head = (f"{', '.join(self.loop_ids)} cycle at about {self.period_s:.0f} s over the same hours: one cause may "
+                "drive them all")  # fmt: skip
         if self.source is None:
             return head + "; none reads as a sticky valve of its own: look upstream, or at a common load"
         return (f"{head}; {self.source}'s valve reads stickiest: fix it first, then look again at "
@@ -52,51 +53,44 @@ class SharedCycle:
 
 
 def _span(r: StictionReport) -> tuple[float, float] | None:
-    if r.t_end_s is None or not r.process.sample_time_s:
+    """The record's span in calendar time, or None where it is not stamped so."""
+    if r.t_end_s is None or r.t_end_s < CALENDAR_FROM_S or not r.process.sample_time_s:
         return None
     return r.t_end_s - r.n_samples * r.process.sample_time_s, r.t_end_s
 
 
-def _together(a: StictionReport, b: StictionReport) -> bool:
-    """One period, and (where both are stamped in calendar time) the same hours."""
-    pa, pb = a.period_s, b.period_s
-    if abs(pa - pb) > PERIOD_SHARE * min(pa, pb):
-        return False
-    sa, sb = _span(a), _span(b)
-    if sa is None or sb is None or min(sa[1], sb[1]) < CALENDAR_FROM_S:
-        return True
-    shared = min(sa[1], sb[1]) - max(sa[0], sb[0])
-    return shared >= OVERLAP_SHARE * min(sa[1] - sa[0], sb[1] - sb[0])
+def _same_hours(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    shared = min(a[1], b[1]) - max(a[0], b[0])
+    return shared >= OVERLAP_SHARE * min(a[1] - a[0], b[1] - b[0])
 
 
 def shared_cycles(reports: list[StictionReport]) -> list[SharedCycle]:
-    """The groups of two or more oscillating loops (``stiction`` or ``other_cause``, a period read) that share one
-    cycle (``PERIOD_SHARE``, ``OVERLAP_SHARE``), linked pair by pair; each loop in one group at most."""
-    cycling = [r for r in reports if r.verdict in ("stiction", "other_cause") and r.period_s and r.period_s > 0]
-    parent = list(range(len(cycling)))
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i in range(len(cycling)):
-        for k in range(i + 1, len(cycling)):
-            if _together(cycling[i], cycling[k]):
-                parent[root(k)] = root(i)
-    groups: dict[int, list[StictionReport]] = {}
-    for i, r in enumerate(cycling):
-        groups.setdefault(root(i), []).append(r)
+    """The groups of two or more oscillating loops (``stiction`` or ``other_cause``, a period read, a record in
+    calendar time) that share one cycle: every period within ``PERIOD_SHARE`` of the group's shortest and every two
+    records of the same hours (``OVERLAP_SHARE``).  Loops taken shortest period first, each joining the first group it
+    fits; each loop in one group at most."""
+    cycling = sorted(
+        ((r, span) for r in reports if r.verdict in ("stiction", "other_cause") and r.period_s and r.period_s > 0
+         for span in [_span(r)] if span is not None),
+        key=lambda item: item[0].period_s,
+    )  # fmt: skip
+    groups: list[list[tuple]] = []
+    for r, span in cycling:
+        for g in groups:
+            if r.period_s <= (1 + PERIOD_SHARE) * g[0][0].period_s and all(_same_hours(span, s) for _, s in g):
+                g.append((r, span))
+                break
+        else:
+            groups.append([(r, span)])
     out = []
-    for members in groups.values():
+    for g in groups:
+        members = [r for r, _ in g]
         if len(members) < 2:
             continue
         sticky = [r for r in members if r.verdict == "stiction"]
         source = max(sticky, key=lambda r: (r.stiction_probability or 0.0, r.s_pct or 0.0)).loop_id if sticky else None
-        calendar = all((r.t_end_s or 0.0) >= CALENDAR_FROM_S for r in members)
         period = float(sorted(r.period_s for r in members)[len(members) // 2])
-        out.append(SharedCycle(tuple(sorted(r.loop_id for r in members)), period, source, calendar))
+        out.append(SharedCycle(tuple(sorted(r.loop_id for r in members)), period, source))
     return sorted(out, key=lambda g: g.loop_ids)
 
 
