@@ -377,17 +377,19 @@ class AgentService:
     def _size(self, loop_id, op, pv, ts_s, t_end_s, partial, sp=None) -> None:
         """Identify the loop's process and read S and J under it on the worker (copies: the window's
         arrays are views of the rolling buffer, and the pool pickles them later)."""
-        if self._size_pool is None:
-            self._size_pool = sizing_pool(1, initializer=lower_priority)
-        future = self._size_pool.submit(size_in_worker, op, pv, ts_s, loop_id, sp)
+        future = self._pool().submit(size_in_worker, op, pv, ts_s, loop_id, sp)
         self._sizings[future] = (loop_id, t_end_s)
         self.sizing.started(loop_id, len(op), partial)
 
-    def _check_stem(self, w) -> None:
-        """Check the loop's measured stem against OP on the worker (copies: the window's arrays are views)."""
+    def _pool(self):
+        """The background worker (one process of lowered priority), started when first needed."""
         if self._size_pool is None:
             self._size_pool = sizing_pool(1, initializer=lower_priority)
-        future = self._size_pool.submit(stem_check, np.array(w.op), np.array(w.mv), float(w.ts_s))
+        return self._size_pool
+
+    def _check_stem(self, w) -> None:
+        """Check the loop's measured stem against OP on the worker (copies: the window's arrays are views)."""
+        future = self._pool().submit(stem_check, np.array(w.op), np.array(w.mv), float(w.ts_s))
         self._stems[future] = w.loop_id
         self.sizing.stem_started(w.loop_id)
 

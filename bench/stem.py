@@ -21,11 +21,10 @@ KINDS = ("two_parameter", "physical", "linear")
 
 def _stems(n: int, seed: int) -> list[dict]:
     """``n`` stems of each kind: (op, mv, ts_s) and the truth."""
-    from stiction.ident.stem_fit import lagged
+    from stiction.ident.stem_fit import lagged, path
     from stiction.sim.grid import random_loops
     from stiction.sim.loop import simulate
     from stiction.sim.plant_families import family_loops, simulate_families, stable
-    from stiction.sim.two_parameter import choudhury_step
     from stiction.sim.valve import band_and_jump_pct
 
     rng = np.random.default_rng(seed)
@@ -45,14 +44,7 @@ def _stems(n: int, seed: int) -> list[dict]:
                 drive = lagged(op, np.array([rng.uniform(0.0, 3.0) * ts_s]), ts_s)[0]
                 s = float(np.exp(rng.uniform(np.log(0.5), np.log(10.0)))) if kind == "two_parameter" else 0.0
                 j = s * float(rng.uniform(0.0, 1.0))
-                valve = drive.copy()
-                if s > 0:
-                    state = (np.ones(1, bool), drive[:1].copy(), np.zeros(1), np.zeros(1))
-                    y = drive[:1].copy()
-                    for k in range(1, drive.size):
-                        y, *state = choudhury_step(drive[k : k + 1], drive[k - 1 : k], y, *state, np.array([s]),
-                                                   np.array([j]))  # fmt: skip
-                        valve[k] = y[0]
+                valve = path(drive, s, j) if s > 0 else drive.copy()  # Choudhury's valve (sim.two_parameter's step)
                 if rng.random() < 0.5:  # stored a sample after the OP that moved it
                     valve = np.concatenate([valve[:1], valve[:-1]])
             mv = float(rng.uniform(-2.0, 2.0)) + float(rng.uniform(0.9, 1.1)) * valve

@@ -24,7 +24,8 @@ from stiction.ident.valve_model import drive_of
 from stiction.sim.two_parameter import choudhury_step
 
 LAGS_TS = (0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 3.0, 5.0)
-"""The actuator lags the sticky valve's coarse grid searches, in sample times (as ``ident.valve_check``)."""
+"""The actuator lags the sticky valve's coarse grid searches, in sample times (and ``ident.valve_check``'s physical
+valve)."""
 FINE_LAG_STEP_TS = 0.1
 FINE_LAG_MAX_TS = 6.0
 """The linear valve's lags, and the sticky valve's about its best: a tenth of a sample apart, up to six samples."""
@@ -59,10 +60,6 @@ class StemFit:
     linear_offset_pct: float
     linear_gain: float
     linear_error_pct: float
-
-    @property
-    def sticky(self) -> bool:
-        return self.sticky_criterion < self.linear_criterion
 
 
 def lagged(op: np.ndarray, lags_s: np.ndarray, ts_s: float) -> np.ndarray:
@@ -133,10 +130,8 @@ def fit_stem(op_pct: np.ndarray, mv_pct: np.ndarray, ts_s: float) -> StemFit:
     span = max(float(np.ptp(op)), 1e-9)
     bands = span * np.geomspace(S_LOWEST_SHARE, 1.0, S_POINTS)
 
-    columns = np.ascontiguousarray(drives)
-
     def run(lag_idx, s, j):
-        return scores(columns, lag_idx, stem, s, j, first)
+        return scores(drives, lag_idx, stem, s, j, first)
 
     # the linear valve: every lag and alignment, S = J = 0
     lin_rss, lin_off, lin_gain = run(np.arange(lags.size), np.zeros(lags.size), np.zeros(lags.size))

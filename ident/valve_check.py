@@ -20,7 +20,7 @@ from stiction.ident.friction import friction, stem_path
 from stiction.ident.process import NOMINAL, Dynamics
 from stiction.ident.record import Record
 from stiction.ident.stem import StemReader
-from stiction.ident.stem_fit import WARMUP_SHARE, fit_stem
+from stiction.ident.stem_fit import LAGS_TS, WARMUP_SHARE, fit_stem
 from stiction.ident.valve_model import Hypothesis, ValveFit
 
 MODEL_ERROR = 0.20
@@ -37,7 +37,6 @@ MIN_BAND_PCT = 0.25
 """A band under this (% of OP) is no sticky valve, whatever the criterion: the resolution a control valve's dynamic
 specification asks of a good valve (EnTech's, 0.25-0.5 %).  A noise-free simulated stem prefers any model a hair
 closer to it, a band of 0.04 % among them."""
-LAG_GRID_TS = (0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 3.0, 5.0)
 
 
 @dataclass(frozen=True)
@@ -62,7 +61,7 @@ def _best(record: Record, reader: StemReader, dyn: Dynamics) -> ValveFit:
     best = None
     path = reader.paths([(dyn, None)])[0]
     unit = 1.0 / (NOMINAL.gain * dyn.time_constant_s)  # gain ratio of a unit static gain
-    for lag in LAG_GRID_TS:
+    for lag in LAGS_TS:
         hyp = Hypothesis(dyn, gain_free=False, actuator_tau_s=lag * record.ts_s, linear_valve=False, snapshot=True)
         vf = fit_valve(record, hyp, path, nominal_gain=unit, search="full")
         ic = criterion(vf.rss, vf.n_params, record.n_fit)

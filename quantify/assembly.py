@@ -96,15 +96,16 @@ def identified_warning(sizing: Sizing) -> str:
         "plant-like loops"  # fmt: skip
 
 
-def stem_fields(check) -> dict:
-    """The report's verdict and numbers read from a measured stem that sticks (``quantify.stem``)."""
+def stem_fields(check, t_end_s: float | None) -> dict:
+    """The report's verdict and numbers read from a measured stem that sticks (``quantify.stem``) in the window that
+    ended at ``t_end_s``."""
     s, j, s_se, j_se = (opt(v) for v in (check.s_pct, check.j_pct, check.s_se_pct, check.j_se_pct))
     fs, fd = (opt(v) for v in friction_pct(s, j))
     fs_se, fd_se = (opt(v) for v in friction_se_pct(s_se, j_se))
     return {
         "verdict": "stiction", "likely_cause": "stiction", "method": "stem",
         "s_pct": s, "j_pct": j, "s_se_pct": s_se, "j_se_pct": j_se, "stiction_kind": fault_kind(s, j, j_se),
-        "fs_pct": fs, "fd_pct": fd, "fs_se_pct": fs_se, "fd_se_pct": fd_se,
+        "fs_pct": fs, "fd_pct": fd, "fs_se_pct": fs_se, "fd_se_pct": fd_se, "estimate_t_end_s": t_end_s,
     }  # fmt: skip
 
 
@@ -168,7 +169,7 @@ def assemble(
     read_stem = stem is not None and draft.verdict != "bad_data"
     from_stem = read_stem and stem.sticky and draft.verdict != "stiction"
     if from_stem:  # the window's "no friction numbers" gives way to the stem's verdict and numbers
-        update |= stem_fields(stem) | {"estimate_t_end_s": draft.t_end_s}
+        update |= stem_fields(stem, draft.t_end_s)
         kept = [w for w in kept if not w.startswith(NO_NUMBERS)]
     unknown = draft.process.source == "none"
     sized = sizing is not None and needs_sizing(draft)
@@ -207,7 +208,7 @@ def assemble(
             tail.append(_stem_against_loop(stem, draft, update))
             loop_se = update.get("s_se_pct", draft.s_se_pct)
             if loop_se is None or stem.s_se_pct < loop_se:
-                update |= stem_fields(stem) | {"estimate_t_end_s": draft.t_end_s}
+                update |= stem_fields(stem, draft.t_end_s)
                 # the stem's numbers are shown: the loop's "not read" no longer holds
                 head = [w for w in head if w != NOT_IDENTIFIED]
                 tail = [w for w in tail if w != NOT_READ_WARNING]

@@ -106,9 +106,10 @@ def rank_key(item: tuple[str, StictionReport]):
     return (ORDER[r.verdict], -(size or 0.0), -(r.stiction_probability or 0.0), r.loop_id)
 
 
-def ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
+def ranking(reports: list[tuple[str, StictionReport]], cycles: list[SharedCycle] | None = None) -> list[dict]:
+    """The table's rows in rank order; ``cycles``: the reports' ``shared_cycles``, where the caller has them."""
     rows = []
-    group = cycle_of(shared_cycles([r for _, r in reports]))
+    group = cycle_of(shared_cycles([r for _, r in reports]) if cycles is None else cycles)
     for k, (path, r) in enumerate(sorted(reports, key=rank_key), start=1):
         rows.append({"rank": k, "loop": r.loop_id, "verdict": r.verdict,
                      "stiction_probability": r.stiction_probability, "s_pct": r.s_pct, "s_se_pct": r.s_se_pct,
@@ -120,7 +121,8 @@ def ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
 
 
 def print_ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
-    rows = ranking(reports)
+    cycles = shared_cycles([r for _, r in reports])
+    rows = ranking(reports, cycles)
 
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"
@@ -136,7 +138,7 @@ def print_ranking(reports: list[tuple[str, StictionReport]]) -> list[dict]:
               f"{row['likely_cause'] or '-'}")  # fmt: skip
     counts = {v: sum(r["verdict"] == v for r in rows) for v in ORDER}
     print(f"{len(rows)} loops: " + ", ".join(f"{n} {v.replace('_', ' ')}" for v, n in counts.items()))
-    for k, g in enumerate(shared_cycles([r for _, r in reports]), start=1):
+    for k, g in enumerate(cycles, start=1):
         print(f"shared cycle {k}: {g.text()}")
     return rows
 
