@@ -83,3 +83,14 @@ def test_a_band_under_a_good_valves_resolution_is_no_sticky_valve():
     op = _op(1200, 7)
     stem = _two_parameter_stem(op, 0.5 * MIN_BAND_PCT, 0.0) + 0.01 * np.random.default_rng(8).standard_normal(op.size)
     assert not check_valve(op, stem, 1.0).sticky
+
+
+def test_a_recorded_stem_that_cannot_be_read_says_why_in_one_line_and_none_is_read():
+    from stiction.quantify.stem import stem_check
+
+    op = _op(600, 9)
+    assert stem_check(op, None, 1.0) == (None, None)  # no stem recorded: nothing to say
+    for mv, why in ((np.full(op.size, 42.0), "does not move"), (op.copy(), "repeats OP"),
+                    (op[:-5], "OP has 600")):  # fmt: skip
+        check, note = stem_check(op, mv, 1.0)
+        assert check is None and why in note and "\n" not in note
