@@ -261,3 +261,35 @@ def test_a_probability_short_of_the_threshold_never_reads_as_the_threshold():
     assert short_of(STICTION_AT - 4e-4, STICTION_AT) == f"{STICTION_AT - 0.01:.2f}"
     assert short_of(0.423, STICTION_AT) == "0.42" and short_of(0.4249, STICTION_AT) == "0.42"
     assert short_of(0.426, STICTION_AT) == "0.43"  # rounding up below the threshold is still honest
+
+
+
+def test_the_shipped_detector_is_the_one_this_code_trains(tmp_path):
+    """A change to the simulator or the evidence moves the detector's training windows, and a detector trained
+    before it answers for code that no longer exists: the valve's slide along a lagged drive (944ebdf) moved the
+    shipped general and cycle models by up to 0.02 in a weight, unnoticed until a retrain for another reason."""
+    import json
+
+    from stiction.cli import main
+    from stiction.detect.verdict import DETECTOR_FILE
+    from stiction.quantify.predictor import DEFAULT_MODELS_DIR
+
+    assert main(["train", "--detector", "--models", str(tmp_path)]) == 0
+    fresh = json.loads((tmp_path / DETECTOR_FILE).read_text())
+    shipped = json.loads((DEFAULT_MODELS_DIR / DETECTOR_FILE).read_text())
+    stale = []
+
+    def compare(a, b, path):
+        if isinstance(a, dict) and isinstance(b, dict) and set(a) == set(b):
+            for k in a:
+                compare(a[k], b[k], f"{path}/{k}")
+        elif isinstance(a, (int, float, list)) and not (isinstance(a, list) and a and isinstance(a[0], str)):
+            x, y = np.asarray(a, float), np.asarray(b, float)
+            if x.shape != y.shape or not np.allclose(x, y, rtol=1e-6, atol=1e-6):
+                stale.append(path)
+        elif a != b:
+            stale.append(path)
+
+    compare(shipped, fresh, "")
+    assert not stale, f"the shipped detector is not what this code trains ({', '.join(stale)}): retrain it with " \
+        "`stiction train --detector --replace-shipped`"
