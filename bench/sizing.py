@@ -8,7 +8,9 @@ sticky the bench prints how many got S and J, their median relative error, and h
 the truth lies inside S +- 2 s_se_pct and J +- 2 j_se_pct (the issue's goal: S within 25 %,
 both inside for >= 80 %).  Beside it, for the same loops: the fit's own standard errors
 without the model error, and the learned thesis-loop models' reading (shown in the
-report's ``learned`` block, never its headline for such loops).
+report's ``learned`` block, never its headline for such loops).  ``--direct-acting`` records every loop as a
+direct-acting controller would: PV falling as the valve opens (a level held by its outlet, a pressure by its vent),
+OP mirrored (100 - OP) and nothing else changed, the same valves read from the other side.
 """
 
 from __future__ import annotations
@@ -98,9 +100,20 @@ def _items(simulator: str, n: int, seed: int) -> list:
     raise ValueError(f"simulator {simulator!r}: one of {', '.join(SIMULATORS)}")
 
 
-def bench_sizing(n_per_class: int = 60, seed: int = 2030, workers: int = 2, simulator: str = "plant") -> dict:
+def _mirrored(item):
+    """The loop as a direct-acting controller records it: the same valve and PV, OP as 100 - OP (S and J are OP
+    travels and do not change)."""
+    s_true, j_true, every, (op, pv, sp, ts_s) = item
+    return s_true, j_true, every, (100.0 - np.asarray(op, float), pv, sp, ts_s)
+
+
+def bench_sizing(
+    n_per_class: int = 60, seed: int = 2030, workers: int = 2, simulator: str = "plant", direct_acting: bool = False
+) -> dict:
     t0 = time.perf_counter()
     items = _items(simulator, n_per_class, seed)
+    if direct_acting:
+        items = [_mirrored(item) for item in items]
     if workers > 1:
         with ProcessPoolExecutor(workers) as pool:
             rows = list(pool.map(_one, items))
@@ -111,6 +124,7 @@ def bench_sizing(n_per_class: int = 60, seed: int = 2030, workers: int = 2, simu
     return {
         "seed": seed,
         "simulator": simulator,
+        "direct_acting": direct_acting,
         "loops": len(rows),
         "called_sticky": len(called),
         "identified": _score(called, "s", "s_se", "j", "j_se"),
@@ -138,8 +152,9 @@ def print_table(fig: dict) -> None:
         "plant": "simulated plant-like sticky loops",
         "two_parameter": "the independent simulator's sticky loops (sim.two_parameter, Choudhury's valve)",
     }
-    print(f"{what[fig.get('simulator', 'plant')]} (seed {fig['seed']}): {fig['called_sticky']} of {fig['loops']} "
-          "called sticky; S and J on those, as stiction quantify reports them")  # fmt: skip
+    recorded = ", recorded direct-acting (OP as 100 - OP)" if fig.get("direct_acting") else ""
+    print(f"{what[fig.get('simulator', 'plant')]} (seed {fig['seed']}{recorded}): {fig['called_sticky']} of "
+          f"{fig['loops']} called sticky; S and J on those, as stiction quantify reports them")  # fmt: skip
     print(f"{'':44s}{'S read':>7s}{'J read':>7s}{'S med. rel err':>16s}{'S in 2se':>10s}{'J in 2se':>10s}")
     labels = {"identified": "identified process (the report's headline)",
               "fit_errors_only": "  same, the fit's own errors only",

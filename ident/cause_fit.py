@@ -176,7 +176,7 @@ class Fitter:
         keys = [(h.dynamics, h.osc_period_s if own_paths else None) for h in hyps]
 
         def one(item):
-            vf = fit_valve(self.record, *item, search="quick")
+            vf = fit_valve(self.record, *item, nominal_gain=self.sign, search="quick")
             return vf, self._criterion(vf)
 
         return self._map(one, list(zip(hyps, self.paths(keys), strict=True)))
@@ -185,13 +185,13 @@ class Fitter:
         """``hyp`` fitted with given slips (no search)."""
         from stiction.ident.fit import refit
 
-        return refit(self.record, hyp, slips)
+        return refit(self.record, hyp, slips, self.sign)
 
     def full(self, hyp: Hypothesis, start: ValveFit | None = None) -> tuple[ValveFit, float]:
         """The full fit; ``start``, a fitted valve (the current model's), is searched from as well."""
         valve = None if start is None else (start.band_pct, start.stop_pct, start.level0_pct)
         path = self.paths([(hyp.dynamics, hyp.osc_period_s)])[0]
-        vf = fit_valve(self.record, hyp, path, search="full", start=valve)
+        vf = fit_valve(self.record, hyp, path, nominal_gain=self.sign, search="full", start=valve)
         return vf, self._criterion(vf)
 
     def fulls(self, hyps: list[Hypothesis], start: ValveFit | None = None) -> list[tuple[ValveFit, float]]:

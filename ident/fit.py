@@ -231,10 +231,14 @@ class Changes:
 
 
 def _walk_parameters(coef: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(stop, level0) of each candidate from its coefficients [C, 4]; stop = S - J where no held slip reads it."""
+    """(stop, level0) of each candidate from its coefficients [C, 4]; stop = S - J where no held slip reads it.
+    A level0 the data cannot read (its regressor within the nuisances' span: an integrating process's constant
+    stem offset is a ramp of PV, which the record's trend takes) comes back exactly 0 from the least squares and
+    is nan here, not a stem at 0 % of OP: walked from 0, every candidate's stem slipped at every sample to reach
+    its drive, and of a loop and its mirror (OP recorded as 100 - OP) only one read so."""
     g = np.where(coef[:, 0] == 0, np.nan, coef[:, 0])
     stop = np.where(coef[:, 1] != 0, coef[:, 1] / g, bands - coef[:, 2] / g)
-    return stop, coef[:, 3] / g
+    return stop, np.where(coef[:, 3] != 0, coef[:, 3] / g, np.nan)
 
 
 S_WIDE = np.geomspace(1 / 3, 3, 17) - 1
@@ -307,7 +311,7 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
     tf = transfer_function(hyp.dynamics, record.ts_s)
     q = nuisance_basis(record, tf, 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None)
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
-    given, path = path, _as_the_process_reads(record, hyp, path)
+    given, path = path, _as_the_process_reads(record, hyp, path, nominal_gain)
     at = np.asarray(path.slips, int).copy()
     for _ in range(SLIP_SWEEPS):
         bounds = np.concatenate([[0], at, [record.n]])  # a slip stays between its neighbours, inside the record
@@ -328,10 +332,12 @@ def _slip_times_refined(record: Record, hyp: Hypothesis, path: StemPath, nominal
     return None if np.array_equal(at, given.slips) else given.with_slips(at)
 
 
-def _as_the_process_reads(record: Record, hyp: Hypothesis, path: StemPath) -> StemPath:
-    """``path`` with its slips' directions and levels flipped where the gain is free and the process
-    reverse-acting (PV falls as the stem opens: the slips read from PV are the stem's, mirrored)."""
-    if hyp.gain_free and process_sign(record.op_pct, record.pv_pct) < 0:
+def _as_the_process_reads(record: Record, hyp: Hypothesis, path: StemPath, nominal_gain: float) -> StemPath:
+    """``path`` with its slips' directions and levels flipped where the process is reverse-acting (PV falls as
+    the stem opens: the slips read from PV are the stem's, mirrored): by the controller's sign where the gain is
+    free, by the sign of the fixed gain where it is not (``Fitter`` fixes it at the controller's sign)."""
+    sign = process_sign(record.op_pct, record.pv_pct) if hyp.gain_free else (-1 if nominal_gain < 0 else 1)
+    if sign < 0:
         return StemPath(path.slips, -path.directions, -path.levels, path.noise_sd)
     return path
 
@@ -367,7 +373,7 @@ def _anchored_fit(
         g_se = float(np.sqrt(fit.cov[0, 0])) if hyp.gain_free else 0.0
         empty = Slips(*(np.zeros(0, t) for t in (int, int, float, float, bool)))
         return ValveFit(hyp, empty, fit, g, g_se, 0.0, 0.0, np.nan, tf, 0.0, 0.0)
-    path = _as_the_process_reads(record, hyp, path)
+    path = _as_the_process_reads(record, hyp, path, nominal_gain)
     read = Slips.from_path(path, drive)
     best = _finish(record, hyp, read, tf, q, nominal_gain)
     if search != "read" and read.at.size and hyp.osc_period_s:
@@ -406,8 +412,8 @@ def _anchored_fit(
             cands = walk(read, drive, bands, stops, levels, window, read_levels)
             rss, coef = _fit_sets(record, hyp, cands, tf, q, nominal_gain)
             new_stops, new_levels = _walk_parameters(coef, bands)
-            ok = np.isfinite(new_stops) & np.isfinite(new_levels)
-            stops, levels = np.where(ok, new_stops, stops), np.where(ok, new_levels, levels)
+            stops = np.where(np.isfinite(new_stops), new_stops, stops)
+            levels = np.where(np.isfinite(new_levels), new_levels, levels)
         ic = criterion(rss, fixed + np.array([c.read.sum() for c in cands]), n)
         # no valve lands beyond its drive or jumps backwards: 0 <= stop <= S (a little noise aside),
         # and none that slipped had a band wider than OP ever moved
@@ -526,18 +532,21 @@ def _read_levels(path: StemPath, first: ValveFit) -> np.ndarray | None:
     """Where the data say the stem landed after each read slip, in % of OP.
 
     The input estimate's levels are ``g (M - b)``: the first fit gives ``g``, and ``b`` is
-    the offset that best aligns them with the landings it predicts.
+    the offset that best aligns them with the landings it predicts.  ``path`` is the stem as the process reads it
+    (``_as_the_process_reads``: mirrored where the gain is negative), so its levels are divided by the gain's size:
+    divided by a negative gain they were mirrored twice, and a direct-acting loop's stem ran against its drive.
     """
     if not (np.isfinite(first.gain_ratio) and first.gain_ratio != 0 and first.slips.at.size):
         return None
     # the read slips that survived the pruning, with the level the data read after each
-    data = path.levels[1:][np.isin(path.slips, first.slips.at)] / first.gain_ratio
+    data = path.levels[1:][np.isin(path.slips, first.slips.at)] / abs(first.gain_ratio)
     model = first.slips.landing_drive - first.slips.directions * first.stop_pct
     return data + float(np.median(model - data))
 
 
-def refit(record: Record, hyp: Hypothesis, slips: Slips) -> ValveFit | None:
-    """``hyp``'s linear fit with the given slips (their landings taken from its own drive)."""
+def refit(record: Record, hyp: Hypothesis, slips: Slips, nominal_gain: float = 1.0) -> ValveFit | None:
+    """``hyp``'s linear fit with the given slips (their landings taken from its own drive); ``nominal_gain``, the
+    gain ratio a hypothesis without a free gain is held at (``fit_valve``)."""
     if hyp.linear_valve or slips.at.size == 0:
         return None
     tf = transfer_function(hyp.dynamics, record.ts_s)
@@ -546,7 +555,7 @@ def refit(record: Record, hyp: Hypothesis, slips: Slips) -> ValveFit | None:
     drive = drive_of(record.op_pct, hyp.actuator_tau_s, record.ts_s)
     # the slips' times and directions only: where the stem lands follows from this hypothesis's own drive
     slips = replace(slips, breaks=np.zeros(slips.at.size), landing_drive=drive.mean[slips.at])
-    vf = _finish(record, hyp, slips, tf, q, 1.0)
+    vf = _finish(record, hyp, slips, tf, q, nominal_gain)
     band, band_se, _ = _band(vf, drive)
     return replace(vf, band_pct=band, band_se=band_se)
 

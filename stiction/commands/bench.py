@@ -163,6 +163,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="plant: sim.plant_loops (the physical valve the fit assumes); two_parameter: the independent simulator "
         "(Choudhury's valve under SIMC-tuned flows and levels; --loops per cause)",
     )
+    z.add_argument(
+        "--direct-acting",
+        action="store_true",
+        help="record every loop as a direct-acting controller would (PV falls as the valve opens: OP as 100 - OP)",
+    )
     z.add_argument("--json", action="store_true")
     v = sub.add_parser("stem", help="the valve checked against its measured stem, on simulated stems of three kinds")
     v.add_argument("--stems", type=int, default=30, help="stems of each kind (two-parameter, physical, linear)")
@@ -218,7 +223,8 @@ def _sizing(args) -> None:
 
     if args.loops < 1 or args.workers < 1:
         raise InputError(f"--loops {args.loops} --workers {args.workers}: need at least 1 each")
-    _emit(args, _host(bench_sizing(args.loops, args.seed, args.workers, args.simulator)), print_table)
+    fig = bench_sizing(args.loops, args.seed, args.workers, args.simulator, args.direct_acting)
+    _emit(args, _host(fig), print_table)
 
 
 def _stem(args) -> None:

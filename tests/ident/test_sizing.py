@@ -140,3 +140,30 @@ def test_where_the_fit_holds_the_stop_at_its_bound_s_is_read_alone_with_its_erro
     assert report.j_pct is None and report.fs_pct is None and report.fd_pct is None
     sized = from_report(report)
     assert sized.read and sized.s_pct == report.s_pct and math.isnan(sized.j_pct) and J_NOT_SEPARABLE in sized.doubts
+
+
+def test_a_direct_acting_loop_reads_as_its_mirror():
+    """A level held by its outlet valve, a pressure by its vent: PV falls as the valve opens and the controller is
+    direct-acting, as in about a third of the measured windows here (OP's and PV's changes correlated +0.3 to
+    +0.97).  Recorded so, a sticky loop must read the same S and J as the same loop recorded reverse-acting, its
+    process gain of the other sign.  Before: every hypothesis without a free gain was fitted with the canonical
+    loop's positive gain, so the diagnosis took another path (the first loop: S 4.13 against 3.79, its process
+    self-regulating with a gain of -26 instead of integrating), under an actuator lag the stem's levels read from PV
+    were mirrored twice and ran against the drive, and a stem level the data cannot read was walked from 0 % of OP
+    (the second loop: S 3.09 against 4.46, J withheld).  Two loops of the independent simulator
+    (``sim.two_parameter``), OP recorded mirrored: as -OP, which is exact in floating point.  (As 100 - OP the band's
+    search may land elsewhere: it is a needle, and a change of 1e-14 in OP moved the second loop's S from 1.27 to
+    1.35, within its error of 0.27-0.34; a sensitivity of its own, not the mirror's.)"""
+    from stiction.sim import two_parameter
+
+    loops = two_parameter.draw(10, 4848)
+    chosen = [loops[4], loops[8]]  # flow loops, stiction: the first read integrating, the second with a lag
+    assert all(lp.kind == "flow" and lp.cause == "stiction" for lp in chosen)
+    for lp, rec in zip(chosen, two_parameter.simulate(chosen, 1500), strict=True):
+        reverse = size(rec.op, rec.pv, lp.ts_s, "reverse", rec.sp)
+        direct = size(-rec.op, rec.pv, lp.ts_s, "direct", rec.sp)
+        assert reverse.read and direct.read, (reverse.why, direct.why)
+        for a, b in ((reverse.s_pct, direct.s_pct), (reverse.j_pct, direct.j_pct), (reverse.s_se_pct, direct.s_se_pct)):
+            assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
+        assert direct.process.kind == reverse.process.kind
+        assert direct.process.gain == pytest.approx(-reverse.process.gain, rel=1e-9)

@@ -22,8 +22,9 @@ def _report(spec: LoopSpec):
 
 def test_causes_that_simulate_pv_worse_are_flagged_and_causes_that_help_are_not():
     # a noise-free self-regulating loop with a lag beyond what the record tells: the one-sample criterion
-    # names causes whose simulation of PV is worse than the canonical model's
-    worse = _report(LoopSpec(30.0, 10.0, extensions=Extensions(time_constant_s=450.0), seed=3))
+    # names causes whose simulation of PV is worse than the canonical model's (twice as bad; at a lag of 450 s it was
+    # 1.8 times until the band's search no longer walked a stem level the data cannot read from 0 %: 1.03 since)
+    worse = _report(LoopSpec(30.0, 10.0, extensions=Extensions(time_constant_s=600.0), seed=3))
     assert worse.causes and worse.extended_error > worse.base_error * (1 + WORSE_SHARE)
     assert any(WARNING in w for w in worse.warnings), worse.warnings
     noise = Disturbance("gaussian", "output", 0.02)
