@@ -270,23 +270,31 @@ def criterion(rss: np.ndarray | float, n_params: np.ndarray | int, n: int) -> np
     return n * np.log(np.maximum(rss, 1e-300) / n) + n_params * np.log(n)
 
 
+def _held_gain(record: Record, nominal_gain: float | None) -> float:
+    """The gain ratio a hypothesis without a free gain is held at: ``nominal_gain`` where given, else the canonical
+    loop's of the sign the record's controller shows (``ident.record.process_sign``: a direct-acting loop's PV falls
+    as the valve opens)."""
+    return float(process_sign(record.op_pct, record.pv_pct)) if nominal_gain is None else float(nominal_gain)
+
+
 def fit_valve(
     record: Record,
     hyp: Hypothesis,
     path: StemPath,
-    nominal_gain: float = 1.0,
+    nominal_gain: float | None = None,
     search: str = "full",
     start: tuple[float, float, float] | None = None,
 ) -> ValveFit:
-    """The valve-model fit under ``hyp`` (``_anchored_fit``); behind a sensor lag or a dead time, in a full
-    search, also with the read slips' times refined (``_slip_times_refined``), whichever the criterion
-    prefers (with a dead time as well, a dead time would lose to a sensor lag by the search alone).
+    """The valve-model fit under ``hyp`` (``_anchored_fit``; ``nominal_gain``: ``_held_gain``); behind a sensor lag or
+    a dead time, in a full search, also with the read slips' times refined (``_slip_times_refined``), whichever the
+    criterion prefers (with a dead time as well, a dead time would lose to a sensor lag by the search alone).
 
     A sensor's lag smears each slip over several samples of PV, and the slips read through its inverse
     land a sample or two off (on 8 sensor-lag loops of the wide draws at seed 555, 0-60 % of them more
     than one sample from the simulator's): the band read from their brackets is then off, and the band's
     search is a needle (a band 1 % off moves every slip).  Given the simulator's own slip times the fit
     read fs and fd within 1 pp on 6 of those 8."""
+    nominal_gain = _held_gain(record, nominal_gain)
     fitted = _anchored_fit(record, hyp, path, nominal_gain, search, start)
     smeared = hyp.dynamics.sensor_tau_s > 0 or hyp.dynamics.dead_time_s > 0
     if search != "full" or hyp.linear_valve or not smeared or path.slips.size < 2:
@@ -544,11 +552,12 @@ def _read_levels(path: StemPath, first: ValveFit) -> np.ndarray | None:
     return data + float(np.median(model - data))
 
 
-def refit(record: Record, hyp: Hypothesis, slips: Slips, nominal_gain: float = 1.0) -> ValveFit | None:
-    """``hyp``'s linear fit with the given slips (their landings taken from its own drive); ``nominal_gain``, the
-    gain ratio a hypothesis without a free gain is held at (``fit_valve``)."""
+def refit(record: Record, hyp: Hypothesis, slips: Slips, nominal_gain: float | None = None) -> ValveFit | None:
+    """``hyp``'s linear fit with the given slips (their landings taken from its own drive); ``nominal_gain``: the
+    gain ratio a hypothesis without a free gain is held at (``_held_gain``)."""
     if hyp.linear_valve or slips.at.size == 0:
         return None
+    nominal_gain = _held_gain(record, nominal_gain)
     tf = transfer_function(hyp.dynamics, record.ts_s)
     omega = 2 * np.pi / hyp.osc_period_s if hyp.osc_period_s else None
     q = nuisance_basis(record, tf, omega)

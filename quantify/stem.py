@@ -26,11 +26,12 @@ def stem_check(op: np.ndarray, mv: np.ndarray | None, ts_s: float) -> tuple[Valv
     op, mv = np.asarray(op, float), np.asarray(mv, float)
     if mv.size != op.size or mv.size < 20:
         return None, f"the mv column has {mv.size} samples where OP has {op.size}: the stem is not read"
-    if np.ptp(mv) <= SAME_AS_OP_REL * max(float(np.ptp(op)), 1e-12):
+    tolerance = SAME_AS_OP_REL * max(float(np.ptp(op)), 1e-12)
+    if np.ptp(mv) <= tolerance:
         return None, (
             f"the mv column does not move (constant at {mv[0]:.4g}) while OP moves {np.ptp(op):.3g} %: a stem that "
             "never moved, or a position not recorded; the valve is read from OP and PV alone"
         )
-    if np.all(np.abs(mv - op) <= SAME_AS_OP_REL * max(float(np.ptp(op)), 1e-12)):
+    if np.all(np.abs(mv - op) <= tolerance):
         return None, "the mv column repeats OP: it is no measured stem position, and is not read as one"
     return check_valve(op, mv, ts_s), None

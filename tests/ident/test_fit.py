@@ -177,6 +177,25 @@ def test_exact_parameters_reproduce_a_noise_free_loop():
     assert fr.fd_pct == pytest.approx(19.4, abs=0.05)
 
 
+
+def test_a_refit_without_a_gain_given_holds_the_gain_of_the_sign_the_controller_shows():
+    """``refit`` and ``fit_valve`` hold a hypothesis without a free gain at the canonical gain of the record's own sign:
+    a noise-free loop recorded with OP mirrored (-OP, a direct-acting controller's record) refits with the same slips
+    to the same residual, its gain -1.  Before, the default was +1, and a caller that gave none (the slow load's
+    scan, ``ident.slow_load``) fitted a direct-acting loop backwards."""
+    spec = LoopSpec(33.2, 19.4, extensions=Extensions(dead_time_s=2.6))
+    r = simulate([spec]).kept()
+    hyp = M.Hypothesis(Dynamics(None, 2.6))
+    path = read_paths(r.pv[0], [hyp.dynamics], 1.0)[0]
+    reverse, direct = Record(r.op[0], r.pv[0], 1.0), Record(-r.op[0], r.pv[0], 1.0)
+    fitted = F.fit_valve(reverse, hyp, path)
+    mirrored = F.fit_valve(direct, hyp, path)
+    assert (fitted.gain_ratio, mirrored.gain_ratio) == (1.0, -1.0)
+    assert mirrored.rss == pytest.approx(fitted.rss, abs=1e-12)
+    again = F.refit(direct, hyp, mirrored.slips)
+    assert again.gain_ratio == -1.0
+    assert again.rss == pytest.approx(F.refit(reverse, hyp, fitted.slips).rss, rel=1e-9, abs=1e-12)
+
 def _regressors_by_slip(slips: M.Slips, n: int, ts_s: float, snapshot: bool = False) -> np.ndarray:
     """The stem's regressors slip by slip: a held slip lands ``stop`` short of the drive, a slip at a
     moving drive jumps by J from the last landing (``snapshot``: the stem at the sample instants)."""
