@@ -174,6 +174,22 @@ def stem_path(vf: ValveFit, record: Record) -> np.ndarray:
     return regs[0] + stop * regs[1] + jump * regs[2] + level0 * regs[3]
 
 
+def _still_valve_basis(vf: ValveFit, record: Record) -> np.ndarray:
+    """[N, k] what the model draws with the stem held still: offset, drift, the process's initial state and, under
+    the hypothesis of one, the external sine; fitted to the record's levels."""
+    t = record.t_s / max(record.t_s[-1], 1e-9)
+    x = np.stack([np.ones(record.n), t, *vf.tf.free_responses(record.n)], axis=1)
+    if vf.hypothesis.osc_period_s:
+        w = 2 * np.pi / vf.hypothesis.osc_period_s * record.t_s
+        x = np.concatenate([x, np.sin(w)[:, None], np.cos(w)[:, None]], axis=1)
+    return x
+
+
+def _fitted(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    return x @ coef
+
+
 def simulated_pv(vf: ValveFit, record: Record) -> np.ndarray:
     """[N] PV as the model simulates it from its stem path, with offset and drift fitted to the record's levels.
 
@@ -182,10 +198,17 @@ def simulated_pv(vf: ValveFit, record: Record) -> np.ndarray:
     u = stem_path(vf, record)
     # deviations from the first position: the process starts at rest with the stem where it is
     y = vf.gain_ratio * vf.tf.response(u[None, :] - u[0])[0]
-    t = record.t_s / max(record.t_s[-1], 1e-9)
-    x = np.stack([np.ones(record.n), t, *vf.tf.free_responses(record.n)], axis=1)
-    if vf.hypothesis.osc_period_s:
-        w = 2 * np.pi / vf.hypothesis.osc_period_s * record.t_s
-        x = np.concatenate([x, np.sin(w)[:, None], np.cos(w)[:, None]], axis=1)
-    coef, *_ = np.linalg.lstsq(x, record.pv_pct - y, rcond=None)
-    return y + x @ coef
+    return y + _fitted(_still_valve_basis(vf, record), record.pv_pct - y)
+
+
+def explained_share(vf: ValveFit, record: Record) -> float:
+    """How much of PV's course the model's simulation from OP explains: 1 - its mean squared error over what the
+    same model draws with the stem held still (offset, drift, initial state, an external sine, all fitted).  1: the
+    valve's moves through the process explain PV's course; 0 or below: they explain none of it, and the model
+    describes PV a sample ahead (its criterion) but not over the record.  NaN where PV has no course to explain."""
+    x, pv, skip = _still_valve_basis(vf, record), record.pv_pct, record.skip
+    still = float(np.mean((pv - _fitted(x, pv))[skip:] ** 2))
+    model = float(np.mean((pv - simulated_pv(vf, record))[skip:] ** 2))
+    if not still > 1e-12 * max(float(np.mean(pv[skip:] ** 2)), 1e-300):
+        return float("nan")
+    return 1.0 - model / still

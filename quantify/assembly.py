@@ -90,6 +90,11 @@ def needs_sizing(report: StictionReport) -> bool:
 
 def identified_warning(sizing: Sizing) -> str:
     head = f"process identified from OP and PV (stiction diagnose): {sizing.process.description}"
+    share = sizing.process.pv_explained_share
+    if share is not None and share <= 0:
+        head += (f"; it explains none of PV's course (pv_explained_share {share:.2g}: PV simulated from OP through it "
+                 "is further from the record than with the valve held still), a description of PV a sample ahead, "
+                 "not shown to be the loop's process")  # fmt: skip
     if not sizing.read:
         return head
     return head + "; S and J are read under it, their uncertainty including the model error measured on simulated " \
@@ -186,6 +191,7 @@ def assemble(
             kind=p.kind, source="identified", gain=p.gain, gain_se=p.gain_se, time_constant_s=p.time_constant_s,
             dead_time_s=p.dead_time_s, sensor_tau_s=p.sensor_tau_s, actuator_tau_s=p.actuator_tau_s,
             sample_time_s=draft.process.sample_time_s, description=p.description,
+            pv_explained_share=p.pv_explained_share,
             parameter_ranges={k: v for k, v in sizing.parameter_ranges.items() if k in PROCESS_RANGES},
         )  # fmt: skip
         if not sizing.read:

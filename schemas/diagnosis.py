@@ -71,6 +71,13 @@ class Process(_Frozen):
     actuator_tau_s: float
     sample_time_s: float
     description: str
+    pv_explained_share: float | None = Field(
+        None,
+        description="how much of PV's course the model's simulation from the measured OP explains: 1 - its mean "
+        "squared error over that of the same model with the stem held still (offset, drift, initial state and a "
+        "named external sine fitted); 0 or below: the valve's moves through this process explain none of PV's "
+        "course, and the model describes PV a sample ahead only; null where PV has no course (since 2026-11-28)",
+    )
 
 
 class Residual(_Frozen):

@@ -44,6 +44,11 @@ class ProcessInfo(BaseModel):
     )
     sample_time_s: float
     description: str | None = Field(None, description="the identified model in words, where one was identified")
+    pv_explained_share: float | None = Field(
+        None,
+        description="an identified model's share of PV's course explained by its simulation from OP (the diagnosis's "
+        "process.pv_explained_share; 0 or below: none of it)",
+    )
 
 
 class Estimate(BaseModel):

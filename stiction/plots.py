@@ -11,6 +11,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from stiction.ident.report import course_share  # noqa: E402
+
 TITLE_WIDTH = 150
 """Characters per title line at the plots' size."""
 TITLE_LINE_IN = 0.2
@@ -64,7 +66,9 @@ def plot_loop(out, window, report, details, title: bool = True, dpi: int = 90):
         ax_pv.plot(t, window.sp, lw=0.8, ls="--", color="0.3", label="SP")
     model_pv = getattr(details, "model_pv", None) if details is not None else None
     if model_pv is not None:
-        ax_pv.plot(t[-len(model_pv) :], model_pv, lw=1.0, color="tab:green", label="PV, identified model from OP")
+        share = getattr(getattr(report, "process", None), "pv_explained_share", None)
+        label = f"PV, identified model from OP ({course_share(share)})"
+        ax_pv.plot(t[-len(model_pv) :], model_pv, lw=1.0, color="tab:green", label=label)
     ax_pv.set_ylabel("PV, percent", color="tab:orange")
     handles = ax_t.get_legend_handles_labels()[0] + ax_pv.get_legend_handles_labels()[0]
     ax_t.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(handles), fontsize=8)

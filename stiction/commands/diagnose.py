@@ -44,7 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _summary(path: str, r) -> str:
     from stiction.ident.models import is_lag_line
-    from stiction.ident.report import causes_text
+    from stiction.ident.report import causes_text, course_share
 
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"
@@ -59,7 +59,8 @@ def _summary(path: str, r) -> str:
         f"  process: {r.process.description}" + "".join(f" (or {t.note})" for t in limits),
         f"  causes: {causes or (NONE_NAMED if r.candidates else '-')}",
         *([f"  cannot tell: {_ties(fitted, bool(r.causes))}"] if fitted else []),
-        f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %)",
+        f"  fit error: canonical {f(r.base_error, 3)} %, extended {f(r.extended_error, 3)} % (gain {r.gain_pct:.0f} %; "
+        f"the extended model {course_share(r.process.pv_explained_share)})",
         _friction_line(r, f),
         *(f"  S and the actuator's lag: {t.note}" for t in traded),
     ]

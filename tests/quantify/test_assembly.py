@@ -97,3 +97,16 @@ def test_a_sticky_measured_stem_shown_beside_a_loop_not_read_leaves_no_word_that
     assert any(w.startswith("the stem reads S 2 +- 0.4 %, which the report shows") for w in r.warnings)
     plain = assemble(draft)  # without it, the loop says what it could not read, as before
     assert set(PROCESS_WARNINGS) <= set(plain.warnings) and plain.method == "none"
+
+
+def test_an_identified_process_that_explains_none_of_pv_is_said_so_where_it_is_shown(quantifier, windows):
+    _, unknown = windows
+    draft = quantifier.results([unknown])[0].draft
+    explains = assemble(draft, Sizing(2.0, 0.5, 0.4, 0.6, PROCESS.model_copy(update={"pv_explained_share": 0.87}), 6))
+    assert explains.process.pv_explained_share == 0.87
+    assert "explains none" not in explains.warnings[0]
+    blind = PROCESS.model_copy(update={"pv_explained_share": -1.5})
+    nothing = assemble(draft, Sizing(2.0, 0.5, 0.4, 0.6, blind, 6))
+    assert nothing.process.pv_explained_share == -1.5
+    assert nothing.warnings[0].startswith("process identified from OP and PV")
+    assert "it explains none of PV's course (pv_explained_share -1.5" in nothing.warnings[0]
