@@ -25,6 +25,7 @@ from stiction.ident.trust import (
     J_NOT_SEPARABLE,
     band_alone,
     band_doubts,
+    dragged,
     holds_zero,
     stuck_travel_contradicts,
     with_model_error,
@@ -222,6 +223,11 @@ def diagnosis_report(
     if unfit:
         notes.append(_worse_course(base_error, extended_error, unfit=True))
     withheld = linear or impossible_valve(f, op_range) or blocking(problems) or unfit
+    slips = d.extended.fit.slips
+    moved = None if withheld else dragged(int(slips.read.sum()), int(slips.at.size), record.n)
+    if moved:  # no stuck phase to read a band from (ident.trust)
+        notes.append(moved)
+        withheld = True
     alone = None if withheld else band_alone(f)  # the stop held at its bound: S alone (ident.trust)
     if alone is not None:
         notes.append(J_NOT_SEPARABLE)

@@ -159,11 +159,16 @@ def test_a_direct_acting_loop_reads_as_its_mirror():
     loops = two_parameter.draw(10, 4848)
     chosen = [loops[4], loops[8]]  # flow loops, stiction: the first read integrating, the second with a lag
     assert all(lp.kind == "flow" and lp.cause == "stiction" for lp in chosen)
+    read = []
     for lp, rec in zip(chosen, two_parameter.simulate(chosen, 1500), strict=True):
         reverse = size(rec.op, rec.pv, lp.ts_s, "reverse", rec.sp)
         direct = size(-rec.op, rec.pv, lp.ts_s, "direct", rec.sp)
-        assert reverse.read and direct.read, (reverse.why, direct.why)
+        # the first loop's band is withheld since its model valve is dragged (``ident.trust.dragged``: it read S 3.78
+        # for a true 7.11), from either side alike
+        assert (reverse.read, reverse.why) == (direct.read, direct.why)
+        read.append(reverse.read)
         for a, b in ((reverse.s_pct, direct.s_pct), (reverse.j_pct, direct.j_pct), (reverse.s_se_pct, direct.s_se_pct)):
-            assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
+            assert b == pytest.approx(a, rel=1e-9, abs=1e-12, nan_ok=True)
         assert direct.process.kind == reverse.process.kind
         assert direct.process.gain == pytest.approx(-reverse.process.gain, rel=1e-9)
+    assert any(read)  # a band read on one side is read on the other, equal to 1e-9
