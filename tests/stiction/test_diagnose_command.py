@@ -130,12 +130,14 @@ def test_the_summary_says_s_and_j_were_not_read_instead_of_printing_dashes():
 
     base = SimpleNamespace(fs_pct=2.6, fd_pct=2.6)
     common = dict(
-        cannot_tell=[], causes=[], parameters={}, candidates={}, process=SimpleNamespace(description="integrating"),
+        cannot_tell=[], causes=[], parameters={}, candidates={},
+        process=SimpleNamespace(description="integrating", pv_explained_share=0.5),
         base_error=1.0, extended_error=0.4, gain_pct=60.0, base_friction=base, valve_check=None,
         warnings=["a valve that does not stick explains PV as well"],
     )  # fmt: skip
     withheld = SimpleNamespace(**common, s_pct=None, s_se_pct=None, j_pct=None, j_se_pct=None, fs_pct=None, fd_pct=None)
     out = _summary("x.csv", withheld)
     assert "S, J: not read (the warnings say why; canonical model: fs 2.6, fd 2.6)" in out and "- +- -" not in out
+    assert "(gain 60 %; the extended model explains 50 % of PV's course)" in out
     read = SimpleNamespace(**common, s_pct=3.0, s_se_pct=0.5, j_pct=1.0, j_se_pct=0.2, fs_pct=2.0, fd_pct=1.0)
     assert "S 3.00 +- 0.50 %  J 1.00 +- 0.20 % of span" in _summary("x.csv", read)
