@@ -146,9 +146,10 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
     fig, axes = plt.subplots(2, 2, figsize=(14, 7.6 + TITLE_LINE_IN * (title.count("\n") + 1)),
                              gridspec_kw={"width_ratios": [1.7, 1]})  # fmt: skip
     ax = axes[0, 0]
+    extended = simulated_pv(d.extended.fit, record)
     models = {
         "canonical model": simulated_pv(d.base.fit, record),
-        "extended model": simulated_pv(d.extended.fit, record),
+        f"extended model ({course_share(report.process.pv_explained_share)})": extended,
     }
     ax.plot(t, record.pv_pct, color="0.35", lw=0.8, label="PV measured")
     for (label, pv), color in zip(models.items(), ("tab:red", "tab:blue"), strict=True):
@@ -173,7 +174,7 @@ def plot_diagnosis(out: Path, record, d, report) -> Path:
     ax.legend(loc="upper right", fontsize=8)
     ax = axes[0, 1]
     # the model behind, the measured loop drawn over it: where they differ the measured one must stay readable
-    ax.plot(record.op_pct, models["extended model"], "-", lw=0.6, color="tab:blue", alpha=0.45,
+    ax.plot(record.op_pct, extended, "-", lw=0.6, color="tab:blue", alpha=0.45,
             label="extended model")  # fmt: skip
     ax.plot(record.op_pct, record.pv_pct, ".", ms=2, color="0.15", label="measured")
     ax.set_xlabel("OP, %")
