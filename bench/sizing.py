@@ -140,8 +140,9 @@ def bench_sizing(
 def _reason(why: str | None) -> str:
     if why is None:
         return "other"
-    for key, name in (("slip", "too few slips"), ("jump", "S, J not separable"), ("does not stick", "linear valve "
-                      "explains PV as well"), ("identified", "identification failed")):  # fmt: skip
+    for key, name in (("dragged", "a dragged valve: no stuck phase"), ("slip", "too few slips"),
+                      ("jump", "S, J not separable"), ("does not stick", "linear valve explains PV as well"),
+                      ("identified", "identification failed")):  # fmt: skip
         if key in why:
             return name
     return why[:60]

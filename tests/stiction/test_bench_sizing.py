@@ -20,3 +20,13 @@ def test_the_independent_simulators_loops_are_the_sticky_ones_whose_record_shows
         assert op.shape == pv.shape == sp.shape and ts_s in two_parameter.SAMPLE_TIMES_S
     with pytest.raises(ValueError, match="one of plant, two_parameter"):
         _items("thesis", 1, 1)
+
+
+def test_the_bench_names_each_reason_a_band_was_withheld_as_the_report_gives_it():
+    from stiction.bench.sizing import _reason
+    from stiction.ident.trust import dragged
+
+    # the dragged valve's warning speaks of slips too: it is not counted as too few of them
+    assert _reason(dragged(0, 1500, 2000)) == "a dragged valve: no stuck phase"
+    assert _reason("1 slip(s) read in the record: too few to bracket the band") == "too few slips"
+    assert _reason(None) == "other"
