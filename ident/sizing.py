@@ -13,7 +13,9 @@ wrong slips move S by a factor of several) or reads fewer than two slips, nothin
 and the reason is.  Nor where the band read is less than half the OP travel over which PV
 stood still in the record (``ident.trust.stuck_travel_contradicts``, applied by
 ``ident.report.diagnosis_report``): a valve that stayed put while OP moved
-that far has a band of about that at least, and a fit that says otherwise describes another loop.
+that far has a band of about that at least, and a fit that says otherwise describes another loop.  Nor where the
+fit keeps no slip the data show and its valve moves at half the samples or more (``ident.trust.dragged``, applied by
+``ident.report.diagnosis_report``): a valve dragged behind OP has no stuck phase to read a band from.
 
 Measured on simulated plant-like sticky loops called sticky by the detector (``stiction bench
 sizing`` prints the same on any seed): seeds 2026 and 2027, 60 loops per class, 66 called
