@@ -26,6 +26,7 @@ from stiction.ident.trust import (
     band_alone,
     band_doubts,
     dragged,
+    explains_none,
     holds_zero,
     stuck_travel_contradicts,
     with_model_error,
@@ -95,26 +96,6 @@ def process_out(model: Model, record: Record) -> schema.Process:
         pv_explained_share=_opt(explained_share(vf, record)),
     )
 
-
-def course_share(share: float | None) -> str:
-    """``pv_explained_share`` in words: "explains 87 % of PV's course", or none of it."""
-    if share is None:
-        return "PV has no course to explain"
-    return f"explains {100 * share:.0f} % of PV's course" if share > 0 else "explains none of PV's course"
-
-
-def explains_none(process: schema.Process) -> str | None:
-    """Why the identified process is no description of PV's course (its simulation from OP explains none of it,
-    ``schemas.diagnosis.Process.pv_explained_share``), or None."""
-    share = process.pv_explained_share
-    if share is None or share > 0:
-        return None
-    return (
-        f"the identified model explains none of PV's course (pv_explained_share {share:.2g}): PV simulated from OP "
-        "through it is further from the record than the same model with the valve held still (its offset, drift "
-        "and initial state fitted); it predicts PV a sample ahead, not over the record, and the process it names is "
-        "not shown to be the loop's"
-    )
 
 
 def causes_text(report: schema.DiagnosisReport) -> str:
@@ -265,7 +246,7 @@ def diagnosis_report(
     process = process_out(d.extended, record)
     none_explained = None if blocking(problems) else explains_none(process)
     if none_explained:
-        notes.append(none_explained)
+        notes.append("the identified model " + none_explained)
     if not withheld:
         notes += band_doubts(f.s_pct, f.s_se_pct, process, f.j_pct, f.j_se_pct)
     if d.linear_valve_delta <= 0 and not d.notes and not blocking(problems):

@@ -160,3 +160,23 @@ def band_doubts(
             "as such a gain: give its range with --pv-span LO HI)"
         )
     return out
+
+
+def course_share(share: float | None) -> str:
+    """``pv_explained_share`` (``schemas.diagnosis.Process``) in words: "explains 87 % of PV's course", or none."""
+    if share is None:
+        return "PV has no course to explain"
+    return f"explains {100 * share:.0f} % of PV's course" if share > 0 else "explains none of PV's course"
+
+
+def explains_none(process) -> str | None:
+    """Why an identified process (``schemas.diagnosis.Process``) is no description of PV's course, as a clause whose
+    subject is the model ("explains none of PV's course ..."), or None where its simulation from OP explains some."""
+    share = process.pv_explained_share
+    if share is None or share > 0:
+        return None
+    return (
+        f"{course_share(share)} (pv_explained_share {share:.2g}): PV simulated from OP through it is further from the "
+        "record than the same model with the valve held still (its offset, drift and initial state fitted); it "
+        "predicts PV a sample ahead, not over the record, and the process it names is not shown to be the loop's"
+    )

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from stiction.ident.sizing import Sizing
+from stiction.ident.trust import explains_none
 from stiction.quantify.window import Window
 from stiction.schemas.report import Estimate, ProcessInfo, StictionReport
 from stiction.sim.process import LOOPS
@@ -90,11 +91,9 @@ def needs_sizing(report: StictionReport) -> bool:
 
 def identified_warning(sizing: Sizing) -> str:
     head = f"process identified from OP and PV (stiction diagnose): {sizing.process.description}"
-    share = sizing.process.pv_explained_share
-    if share is not None and share <= 0:
-        head += (f"; it explains none of PV's course (pv_explained_share {share:.2g}: PV simulated from OP through it "
-                 "is further from the record than with the valve held still), a description of PV a sample ahead, "
-                 "not shown to be the loop's process")  # fmt: skip
+    none_explained = explains_none(sizing.process)
+    if none_explained:
+        head += "; it " + none_explained
     if not sizing.read:
         return head
     return head + "; S and J are read under it, their uncertainty including the model error measured on simulated " \

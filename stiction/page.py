@@ -131,7 +131,7 @@ def _anchor(loop_id: str, k: int) -> str:
 def _process(r: StictionReport) -> str:
     p = r.process
     if p.description and p.source == "identified":
-        from stiction.ident.report import course_share
+        from stiction.ident.trust import course_share
 
         return f"{p.description} ({course_share(p.pv_explained_share)})"
     if p.description:

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from stiction.ident.report import course_share  # noqa: E402
+from stiction.ident.trust import course_share  # noqa: E402
 
 TITLE_WIDTH = 150
 """Characters per title line at the plots' size."""

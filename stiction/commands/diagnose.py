@@ -44,7 +44,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _summary(path: str, r) -> str:
     from stiction.ident.models import is_lag_line
-    from stiction.ident.report import causes_text, course_share
+    from stiction.ident.report import causes_text
+    from stiction.ident.trust import course_share
 
     def f(x, nd=2):
         return "-" if x is None else f"{x:.{nd}f}"

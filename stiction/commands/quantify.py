@@ -95,7 +95,7 @@ def _process_line(p) -> str:
 
     how = "declared"
     if p.source == "identified" and p.description:
-        from stiction.ident.report import course_share
+        from stiction.ident.trust import course_share
 
         return f"{p.description} (identified from OP and PV; {course_share(p.pv_explained_share)})"
     if p.source == "identified":

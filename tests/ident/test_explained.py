@@ -10,7 +10,8 @@ import pytest
 from stiction.ident.diagnose import diagnose
 from stiction.ident.friction import explained_share, simulated_pv
 from stiction.ident.record import Record
-from stiction.ident.report import course_share, diagnosis_report
+from stiction.ident.report import diagnosis_report
+from stiction.ident.trust import course_share
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.loop import LoopSpec, simulate
 
