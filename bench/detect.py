@@ -15,7 +15,12 @@ published tests, in one run.
   judged by a detector trained without them (on the simulated families and the other tags), and
   by the detector trained on simulation alone.
 
-Methods: the project's verdict (data checks, then the stiction probability >= ``STICTION_AT``), its
+The window network (``detect.sequence``) is part of the verdict: for the families left out, one is trained on the
+other three families as the shipped one is (``trainer.window_net``, minutes: the bench's longest part); the other
+simulator and the measured windows are read by the shipped network, which was trained on no window of either.
+
+Methods: the project's verdict (data checks, then the stiction probability >= ``STICTION_AT``), the same verdict
+without the window network (``statistics``: the logistic models alone, as before 2026-11-28), its
 stuck-valve tests alone, Horch's cross-correlation test (stiction where it reads an odd CCF),
 Choudhury's bicoherence test (nonlinear and oscillating), and He et al.'s shape test (SI of OP > 0.6).
 """
@@ -29,7 +34,7 @@ import numpy as np
 
 from stiction.detect.training import SIM_SEED
 
-METHODS = ("ours", "stuck", "horch", "bicoherence", "shape")
+METHODS = ("ours", "statistics", "stuck", "horch", "bicoherence", "shape")
 BAND_BINS_PCT = ((0.0, 1.0), (1.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, 100.0))
 """Bins of the band S (% of span, deadband included) by which the windows that show a fault are counted."""
 SLIP_NOISE_BINS = ((0.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, np.inf))
@@ -40,13 +45,14 @@ EFFECT_NOISE_BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 5.0), (5.0, np.inf))
 stem slipped, by how much the record shows it; under 1 they are labelled healthy-looking."""
 
 
-def _calls(ev, p_stiction: float, blocked: bool) -> dict[str, bool]:
+def _calls(ev, p_stiction: float, blocked: bool, p_statistics: float) -> dict[str, bool]:
     from stiction.detect.shape import STICTION as SHAPE_STICTION
     from stiction.detect.verdict import STEP_AT, STICTION_AT, STUCK_AT
 
     ramp, step = ev.stuck
     return {
         "ours": bool(not blocked and p_stiction >= STICTION_AT),
+        "statistics": bool(not blocked and p_statistics >= STICTION_AT),
         "stuck": bool(not blocked and (ramp >= STUCK_AT or step >= STEP_AT)),
         "horch": ev.horch.verdict == "stiction",
         "bicoherence": bool(ev.bicoherence.nonlinear and ev.oscillation.oscillating),
@@ -113,14 +119,42 @@ def _method_rows(calls: list[dict], truth: np.ndarray, oscillating: np.ndarray, 
     return row
 
 
+def _shipped_sequence(records) -> np.ndarray:
+    """The shipped window network's probability of each record (op, pv, sp), nan where there is no network."""
+    from stiction.quantify.predictor import load_window_net, sequence_probabilities
+
+    net = load_window_net()
+    out = np.full(len(records), np.nan)
+    if net is not None:
+        for i, (op, pv, sp) in enumerate(records):
+            out[i] = sequence_probabilities(net, np.asarray(op, float)[None], np.asarray(pv, float)[None], [sp])[0]
+    return out
+
+
+def _trained_sequence(model, records) -> np.ndarray:
+    """A trained ``trainer.nets.WindowEnsemble``'s probability of each record (op, pv, sp) (torch)."""
+    from stiction.detect import sequence
+    from stiction.trainer.window_net import chunk_logits
+
+    out = np.full(len(records), np.nan)
+    for i, (op, pv, sp) in enumerate(records):
+        c = sequence.chunks(op, pv, sp)
+        if len(c):
+            out[i] = sequence.probability_of(chunk_logits(model, c))
+    return out
+
+
 def _judged(rows, detector) -> dict:
-    """Each method's rates on ``rows`` (loop, record, evidence, blocked) by kind, ``detector`` for ours."""
+    """Each method's rates on ``rows`` (loop, record, evidence, blocked) by kind, ``detector`` and the shipped
+    window network for ours."""
     x = np.nan_to_num(np.array([r[2].vector for r in rows]))
     stuck = np.array([r[2].stuck for r in rows])
     osc = np.array([r[2].oscillation.oscillating for r in rows])
-    p = detector.stiction_probability(x, stuck, osc)
+    seq = _shipped_sequence([(r[1].op, r[1].pv, r[1].sp) for r in rows])
+    p = detector.stiction_probability(x, stuck, osc, sequence=seq)
+    p_stat = detector.stiction_probability(x, stuck, osc)
     truth = np.array([r[1].shows_fault for r in rows])
-    calls = [_calls(r[2], p[i], r[3]) for i, r in enumerate(rows)]
+    calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]
     kinds = np.array([r[0].kind for r in rows])
     return {kind: _method_rows(calls, truth, osc, kinds == kind) for kind in sorted(set(kinds))}
 
@@ -132,8 +166,10 @@ def bench_detect(
     train_per_class: int = 20,
     bands: str = "plant",
     samples: int | None = None,
+    window_net=None,
 ) -> dict:
-    """``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
+    """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
+    network's); ``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
     ``bands``: the scale of the judged sticky valves' bands (``sim.plant_families.BANDS``); ``samples``: the
     judged records' length (default the training windows', ``sim.plant_families.WINDOW_SAMPLES``: the same
     loops recorded longer, as exports and the agent's windows hold them).  The detectors
@@ -158,12 +194,23 @@ def bench_detect(
     x = np.nan_to_num(np.array([r[2].vector for r in rows]))
     stuck = np.array([r[2].stuck for r in rows])
     osc = np.array([r[2].oscillation.oscillating for r in rows])
-    p = np.zeros(len(rows))
+    from stiction.trainer import window_net as wn
+
+    settings = window_net or wn.WindowNetSettings()
+    t2 = time.perf_counter()
+    windows = wn.family_windows(settings)
+    out["window_net"] = {"windows": int(len(windows.shows_fault)), "simulate_s": time.perf_counter() - t2}
+    records = [(r[1].op, r[1].pv, r[1].sp) for r in rows]
+    p, p_stat = np.zeros(len(rows)), np.zeros(len(rows))
     for f in FAMILIES:
         d = training.train(sim.subset(sim.family != f))
         held = family == f
-        p[held] = d.stiction_probability(x[held], stuck[held], osc[held])
-    calls = [_calls(r[2], p[i], r[3]) for i, r in enumerate(rows)]
+        net = wn.train(windows.subset(windows.family != f), settings)
+        seq = _trained_sequence(net, [records[i] for i in np.flatnonzero(held)])
+        p[held] = d.stiction_probability(x[held], stuck[held], osc[held], sequence=seq)
+        p_stat[held] = d.stiction_probability(x[held], stuck[held], osc[held])
+    out["window_net"]["train_s"] = time.perf_counter() - t2 - out["window_net"]["simulate_s"]
+    calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]
     calls_ours = np.array([c["ours"] for c in calls])
     # the label before 2026-11-25 and the detector's training label: the stem slipped, shown or not
     slipped = np.array([r[1].stem_slipped for r in rows])
@@ -206,16 +253,19 @@ def bench_detect(
         stuck_m = np.array([r[2].stuck for r in measured_rows])
         osc_m = np.array([r[2].oscillation.oscillating for r in measured_rows])
         sticky = np.array([r[1] for r in measured_rows])
-        p_cv = np.zeros(len(measured_rows))
+        # the shipped window network never saw a measured window: it reads every tag as held out
+        seq_m = _shipped_sequence([(e.op, e.pv, e.sp) for _, _, e in exports])
+        p_cv, p_cv_stat = np.zeros(len(measured_rows)), np.zeros(len(measured_rows))
         for tag in sorted(set(tags)):
             keep = [i for i, t in enumerate(tags) if t != tag]
             held = [i for i, t in enumerate(tags) if t == tag]
             d = training.train(sim, xm[keep], list(sticky[keep]), [tags[i] for i in keep],
                                measured_oscillating=osc_m[keep])  # fmt: skip
-            p_cv[held] = d.stiction_probability(xm[held], stuck_m[held], osc_m[held])
-        p_sim = simulation_only.stiction_probability(xm, stuck_m, osc_m)
-        calls = [_calls(r[2], p_cv[i], r[3]) for i, r in enumerate(measured_rows)]
-        calls_sim = np.array([_calls(r[2], p_sim[i], r[3])["ours"] for i, r in enumerate(measured_rows)])
+            p_cv[held] = d.stiction_probability(xm[held], stuck_m[held], osc_m[held], sequence=seq_m[held])
+            p_cv_stat[held] = d.stiction_probability(xm[held], stuck_m[held], osc_m[held])
+        p_sim = simulation_only.stiction_probability(xm, stuck_m, osc_m, sequence=seq_m)
+        calls = [_calls(r[2], p_cv[i], r[3], p_cv_stat[i]) for i, r in enumerate(measured_rows)]
+        calls_sim = np.array([_calls(r[2], p_sim[i], r[3], p_sim[i])["ours"] for i, r in enumerate(measured_rows)])
         readable = ~np.array([r[3] for r in measured_rows])
         out["measured"] = {
             "windows": len(measured_rows),
@@ -269,6 +319,11 @@ def print_table(fig: dict) -> None:
     print("ours against the label before 2026-11-25 (the stem slipped twice, shown or not): balanced "
           + ", ".join(f"{f} {v:.2f}" for f, v in stem.items()))  # fmt: skip
     print(f"evidence per window: {1000 * fig['seconds_per_window']:.1f} ms (with the simulation)")
+    wn = fig.get("window_net")
+    if wn:
+        print(f"window networks (one per family left out): {wn['windows']} simulated windows, "
+              f"{wn['simulate_s']:.0f} s simulating, {wn['train_s']:.0f} s training; "
+              "ours without them: statistics")  # fmt: skip
     m = fig.get("measured")
     if m:
         print(f"measured windows ({m['windows']} in {m['tags']} tags, {m['sticky']} labelled sticky, "

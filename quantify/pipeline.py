@@ -26,7 +26,14 @@ from stiction.ident.checks import blocking, data_checks_rows
 from stiction.quantify import inlpca, physical, policy
 from stiction.quantify.analysis import analyse_where
 from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
-from stiction.quantify.predictor import DEFAULT_MODELS_DIR, ModelError, load_models, model_version
+from stiction.quantify.predictor import (
+    DEFAULT_MODELS_DIR,
+    ModelError,
+    load_models,
+    load_window_net,
+    model_version,
+    sequence_probabilities,
+)
 from stiction.quantify.window import Reading, Window
 from stiction.schemas.report import StictionReport
 
@@ -80,6 +87,9 @@ class Quantifier:
         except (ValueError, KeyError) as e:  # a file of another version, or not a detector's
             said = str(e) if str(path) in str(e) else f"{path}: not a detector file ({e.__class__.__name__}: {e})"
             raise ModelError(said) from None
+        self.window_net = load_window_net(models_dir)
+        if self.window_net is not None:
+            self.model_version = model_version(self.thesis, self.cycle, self.window_net)
         self.cpu_s = dict.fromkeys(STAGES, 0.0)
         """CPU seconds of the calling thread in each stage, summed over every window quantified (the
         agent's profile: ``stiction bench throughput`` prints it)."""
@@ -123,9 +133,17 @@ class Quantifier:
         level = declared | identified
         problems_all = data_checks_rows(op, pv)
         evs = features.evidence_rows(op, pv, ts_s, sps)
+        seq = np.full(n, np.nan)
+        if self.window_net is not None:
+            # only where the network speaks: a window that neither cycles nor is the canonical loop, and reads
+            read = np.array([not ev.oscillation.oscillating for ev in evs]) & ~level
+            read &= np.array([not blocking(problems) for problems in problems_all])
+            if read.any():
+                idx = np.flatnonzero(read)
+                seq[idx] = sequence_probabilities(self.window_net, op[idx], pv[idx], [sps[i] for i in idx])
         verdicts = [
-            decide(self.detector, ev, [c.message for c in blocking(problems)], bool(known))
-            for ev, problems, known in zip(evs, problems_all, level, strict=True)
+            decide(self.detector, ev, [c.message for c in blocking(problems)], bool(known), float(s))
+            for ev, problems, known, s in zip(evs, problems_all, level, seq, strict=True)
         ]
         clock = self._lap("verdict", clock)
         sticky = np.array([v.verdict == "stiction" for v in verdicts])

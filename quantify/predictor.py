@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
+from stiction.detect import sequence
 from stiction.quantify.features import CURVE_POINTS, CYCLE_FEATURES, THESIS_WINDOW
 from stiction.quantify.inlpca import InlpcaSettings
 from stiction.schemas.errors import StictionError
@@ -32,6 +33,7 @@ EXPECTED_FEATURES = {
         "n_features": CYCLE_FEATURES,
         "inlpca": asdict(InlpcaSettings()),
     },
+    "window_net": sequence.FEATURE_SPEC,
 }
 
 
@@ -87,3 +89,32 @@ def load_models(models_dir: Path | None = None) -> tuple[Predictor, Predictor]:
 def model_version(*predictors: Predictor) -> str:
     """E.g. ``thesis_mlp-1.3fa2c1d0+cycle_ensemble-1.9b0e77aa``: name, version, file hash."""
     return "+".join(f"{p.card.name}-{p.card.version}.{p.card.onnx_sha256[:8]}" for p in predictors)
+
+
+WINDOW_NET = "window_net"
+
+
+def load_window_net(models_dir: Path | None = None) -> Predictor | None:
+    """The window network (``detect.sequence``) of ``models_dir`` where it holds one, else the shipped one; None
+    where neither has one (models trained before it: the verdict then weighs its statistics alone, as it did)."""
+    for folder in ([Path(models_dir)] if models_dir is not None else []) + [DEFAULT_MODELS_DIR]:
+        if (folder / f"{WINDOW_NET}.card.json").is_file():
+            return Predictor(folder, WINDOW_NET)
+    log.warning("no window network in %s or the shipped models: the verdict weighs the statistics alone", models_dir)
+    return None
+
+
+def sequence_probabilities(net: Predictor, op: np.ndarray, pv: np.ndarray, sps: list) -> np.ndarray:
+    """The window network's probability that each window [n, N] shows a valve fault (nan where it reads none:
+    too short, or NaN in the record): every window's chunks in one run, each window's chunks' mean log-odds."""
+    per_window = [sequence.chunks(o, p, sp) for o, p, sp in zip(op, pv, sps, strict=True)]
+    counts = [len(c) for c in per_window]
+    out = np.full(len(per_window), np.nan)
+    if not sum(counts):
+        return out
+    logits = net.run(np.concatenate([c for c in per_window if len(c)]))["logit"]
+    at = 0
+    for i, k in enumerate(counts):
+        out[i] = sequence.probability_of(logits[at : at + k])
+        at += k
+    return out

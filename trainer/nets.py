@@ -3,6 +3,8 @@
 ``ThesisMLP``: thesis 4.6, 100 OP samples -> 25 sigmoid units -> (fs_pct, fd_pct).
 ``CycleEnsemble``: K small MLPs on the cycle features; outputs their mean, their
 spread (the uncertainty) and an out-of-distribution score of the input.
+``WindowEnsemble``: K small dilated convolutional networks on a window's OP and PV (``detect.sequence``);
+outputs their mean log-odds that the window shows a valve fault.
 """
 
 from __future__ import annotations
@@ -99,3 +101,35 @@ def fit_ood(x: torch.Tensor, k: int = 12) -> OodScore:
     with torch.no_grad():
         ood.q99 = torch.quantile(ood.raw(x), 0.99)
     return ood
+
+
+class WindowNet(nn.Module):
+    """Dilated 1-D convolutions over a window's channels (``detect.sequence.CHANNELS``), then the mean and the
+    maximum over time of the last layer's units, then one log-odds.  Two layers at the full rate (a slip's edge
+    is a sample or two), the rest at half the rate with dilations 2, 4 and 8: the receptive field is about 120
+    samples, a stuck stretch and its slip.  Any length: the pooling is over time."""
+
+    def __init__(self, channels: int = 5, hidden: int = 16, kernel: int = 7):
+        super().__init__()
+        pad = kernel // 2
+        self.full_rate = nn.Sequential(
+            nn.Conv1d(channels, hidden, kernel, padding=pad), nn.GELU(),
+            nn.Conv1d(hidden, hidden, kernel, padding=2 * pad, dilation=2), nn.GELU(),
+        )  # fmt: skip
+        self.half_rate = nn.Sequential(
+            *[m for d in (2, 4, 8) for m in (nn.Conv1d(hidden, hidden, kernel, padding=pad * d, dilation=d), nn.GELU())]
+        )
+        self.out = nn.Linear(2 * hidden, 1)
+
+    def forward(self, x):  # [B, C, N] -> [B]
+        z = self.half_rate(nn.functional.avg_pool1d(self.full_rate(x), 2))  # [B, H, N / 2]
+        return self.out(torch.cat([z.mean(dim=-1), z.amax(dim=-1)], dim=1)).squeeze(1)
+
+
+class WindowEnsemble(nn.Module):
+    def __init__(self, members: list[WindowNet]):
+        super().__init__()
+        self.members = nn.ModuleList(members)
+
+    def forward(self, x):  # [B, C, N] -> [B] mean log-odds
+        return torch.stack([m(x) for m in self.members], dim=0).mean(dim=0)

@@ -20,7 +20,7 @@ from stiction.schemas.model_card import ModelCard, TensorSpec
 from stiction.sim.extensions import Extensions
 from stiction.sim.grid import case_specs
 from stiction.sim.loop import simulate
-from stiction.trainer import data, nets
+from stiction.trainer import data, nets, window_net
 from stiction.trainer.export import export
 from stiction.trainer.fit import FitSettings, fit
 
@@ -47,6 +47,8 @@ class TrainSettings:
     cycle_fit: FitSettings = field(
         default_factory=lambda: FitSettings(epochs=400, patience=30, batch_size=256, learning_rate=2e-3)
     )
+    window_net: window_net.WindowNetSettings = field(default_factory=window_net.WindowNetSettings)
+    """The verdict's window network (``trainer.window_net``), written beside the others."""
 
 
 def _split(groups: np.ndarray, seed: int, val_share: float = 0.2):
@@ -227,6 +229,8 @@ def run(settings: TrainSettings) -> dict:
     )
     for card in (thesis_card, cycle_card):
         (settings.models_dir / f"{card.name}.card.json").write_text(card.model_dump_json(indent=2) + "\n")
-    summary = {"seconds": time.perf_counter() - started, "accuracy": accuracy, "models_dir": str(settings.models_dir)}
+    windows = window_net.run(settings.models_dir, settings.window_net)
+    summary = {"seconds": time.perf_counter() - started, "accuracy": accuracy, "models_dir": str(settings.models_dir),
+               "window_net": windows}  # fmt: skip
     log.info("trained in %.0f s: %s", summary["seconds"], accuracy)
     return summary

@@ -34,6 +34,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="train only the stiction detector (seconds, no torch): simulated plant-like loops, plus --measured",
     )
     p.add_argument(
+        "--window-net",
+        action="store_true",
+        help="train only the window network the verdict reads where a loop does not cycle (torch, about 5 minutes)",
+    )
+    p.add_argument(
         "--measured", type=Path, metavar="DIR", help="labelled measured exports (loops.json beside) for --detector"
     )
     p.add_argument("--realisations", type=int, default=3, help="draws of the limit cycle per grid point")
@@ -124,9 +129,30 @@ def train_detector(args: argparse.Namespace) -> int:
     return 0
 
 
+def train_window_net(args: argparse.Namespace) -> int:
+    """The window network alone (``trainer.window_net``): simulated families, torch, a few minutes."""
+    try:
+        from stiction.trainer import window_net
+        from stiction.trainer.train import DEFAULT_MODELS_DIR
+    except ImportError as e:
+        raise StictionError(f"training needs the train extra ({e.name} missing): pip install -e '.[train]'") from None
+    models_dir = _models_dir(args, DEFAULT_MODELS_DIR)
+    summary = window_net.run(models_dir, window_net.WindowNetSettings(seed=args.seed))
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(f"window network written to {models_dir}: {summary['windows']} simulated windows, "
+              f"{summary['simulate_s']:.0f} s simulating, {summary['train_s']:.0f} s training")  # fmt: skip
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.detector and args.window_net:
+        raise InputError("--detector and --window-net: one at a time (each writes only its own model)")
     if args.detector:
         return train_detector(args)
+    if args.window_net:
+        return train_window_net(args)
     extensions = parse_extensions(args.extension)
     for name in ("realisations", "ensemble"):
         if getattr(args, name) < 1:

@@ -2,10 +2,13 @@
 
 from stiction.bench.detect import METHODS, bench_detect, print_table
 from stiction.sim.plant_families import FAMILIES
+from stiction.trainer.window_net import WindowNetSettings
 
 
 def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_published_tests(capsys, plant_dir):
-    fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2)
+    tiny = WindowNetSettings(seeds=1, n_per_cause=1, members=1, epochs=1)
+    fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2, window_net=tiny)
+    assert fig["window_net"]["windows"] > 0
     assert set(fig["families"]) == set(FAMILIES) and fig["bands"] == "plant"
     for row in fig["families"].values():
         for m in METHODS:

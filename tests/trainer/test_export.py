@@ -51,3 +51,15 @@ def test_ood_score_is_one_at_the_training_99th_percentile_and_grows_off_it():
         far = ood(x[:10] + 20 * x.std(0))
     assert abs(float((scores <= 1).float().mean()) - 0.99) < 0.005
     assert bool((far > 3).all())
+
+
+def test_window_ensemble_torch_matches_onnxruntime_at_any_batch_and_length(tmp_path):
+    torch.manual_seed(3)
+    model = nets.WindowEnsemble([nets.WindowNet(5, 8) for _ in range(2)])
+    path = tmp_path / "w.onnx"
+    export(model, 0, path, "chunks", ["logit"], example=torch.zeros(2, 5, 600), dynamic_axes={0: "batch", 2: "samples"})
+    for batch, samples in ((1, 600), (4, 600), (3, 257)):
+        xb = torch.randn(batch, 5, samples)
+        with torch.no_grad():
+            expected = model(xb).numpy()
+        np.testing.assert_allclose(_run(path, "chunks", xb.numpy())[0], expected, rtol=1e-4, atol=1e-4)
