@@ -212,10 +212,14 @@ class Detector:
         level loop), raised to a stuck-valve test's where that test speaks.
         ``stuck`` [n, 2]: each window's ``Evidence.stuck`` (stuck-ramp share, stuck step's travel share).
         ``sequence`` [n]: the window network's probability (``detect.sequence``; nan where it read none), which
-        speaks instead of the general model for a window that neither cycles nor is the canonical loop: there
-        the statistics rank the faults above the look-alikes with AUC 0.66-0.76 held out, the network 0.80-0.94
-        (seed 3031's plant-scale families, each family judged by models trained on the other three; among the
-        regular cycles the cycle model ranks better, 0.87-0.97 against 0.80-0.97: docs/benchmarks.md)."""
+        speaks beside the general model for a window that neither cycles nor is the canonical loop: the larger
+        of the two.  There the statistics rank the faults above the look-alikes with AUC 0.66-0.76 held out, the
+        network 0.80-0.93 (seed 3031's plant-scale families, each judged by models trained on the other three),
+        and they miss different windows: on those families the larger of the two reached a balanced accuracy of
+        0.81-0.84 a family, the network alone 0.73-0.85, the statistics alone 0.68-0.77 (docs/benchmarks.md,
+        "The window network").  Among the regular cycles the cycle model ranks as well or better and speaks
+        alone.
+        """
         x = np.atleast_2d(x)
         which = np.zeros(x.shape[0], int)  # each row's model: 0 the general, 1 the cycle's, 2 the canonical
         if oscillating is not None and self.cycle is not None:
@@ -231,7 +235,7 @@ class Detector:
                 p[rows] = model.probabilities(x[rows])[:, model.classes.index("stiction")]
         if sequence is not None:
             sequence = np.broadcast_to(np.asarray(sequence, float), p.shape)
-            p = np.where((which == 0) & np.isfinite(sequence), sequence, p)
+            p = np.where((which == 0) & np.isfinite(sequence), np.fmax(p, sequence), p)
         if stuck is None:
             return p
         stuck = np.asarray(stuck, float).reshape(-1, 2)
@@ -283,6 +287,9 @@ class Verdict:
     stuck_valve: str | None = None
     """Where the stuck-valve test called it: what it saw, for the report's warnings (the engineer
     reads why a loop without a cycle is called sticky)."""
+    sequence: str | None = None
+    """Where the window network spoke (a window without a regular cycle): its probability beside the statistics'
+    alone, for the report's warnings."""
 
 
 def _stuck_valve(detector: Detector, ev: Evidence) -> str | None:
@@ -322,10 +329,16 @@ def decide(
     osc, known = np.array([ev.oscillation.oscillating]), np.array([canonical])
     seq = None if sequence_p is None else np.array([sequence_p], float)
     p = float(detector.stiction_probability(x, ev.stuck[None, :], osc, known, seq)[0])
+    general = not (osc[0] and detector.cycle is not None) and not (canonical and detector.canonical is not None)
+    read = None
+    if general and seq is not None and np.isfinite(seq[0]):
+        alone = float(detector.stiction_probability(x, None, osc, known)[0])
+        read = (f"window network: OP and PV's course, read sample by sample in a window without a regular cycle, "
+                f"gives {seq[0]:.2f} (the window's statistics alone {alone:.2f})")  # fmt: skip
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)
-        reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "")
-        return Verdict("stiction", p, "stiction", reason, stuck)
+        reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "") + (f"; {read}" if read else "")
+        return Verdict("stiction", p, "stiction", reason, stuck, read)
     leans = (
         f"; stiction probability {short_of(p, STICTION_AT)}, short of the {STICTION_AT} a stiction verdict needs: "
         "the data lean to stiction but do not settle it"
@@ -333,9 +346,9 @@ def decide(
         else ""
     )
     if not ev.oscillation.oscillating:
-        return Verdict(
-            "no_oscillation", p, None, f"no regular oscillation (regularity {ev.oscillation.regularity:.2f})" + leans
-        )
+        said = f"no regular oscillation (regularity {ev.oscillation.regularity:.2f})" + leans
+        said += f"; {read}" if read else ""
+        return Verdict("no_oscillation", p, None, said, sequence=read)
     probs = detector.cause.probabilities(x)[0]
     ranked = [detector.cause.classes[k] for k in np.argsort(probs)[::-1]]
     cause = next((c for c in ranked if c != "noise"), ranked[0])

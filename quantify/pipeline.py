@@ -173,6 +173,8 @@ class Quantifier:
             if band[i]:
                 verdict = policy.called_by_band(verdict, float(phys.fs_pct[i]), float(phys.fs_se_pct[i]))
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
+            if verdict.verdict == "stiction" and verdict.sequence:
+                warnings.append(verdict.sequence)
             if verdict is not verdicts[i]:
                 warnings.append(f"stiction: {verdict.reason}")
             partial = w.partial

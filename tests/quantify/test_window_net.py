@@ -1,0 +1,66 @@
+"""The window network in the verdict: a valve fault hidden in a loop that does not cycle, which the window's
+statistics read as healthy, is found, and the same loop with a healthy valve is not called.
+
+The loops come from the independent simulator (``sim.two_parameter``: Choudhury's valve under SIMC-tuned PI, a
+slow wander on the load), which no model of the verdict is trained on; seed 9090, recorded 1,000 samples (the
+agent's window)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from stiction.detect.features import evidence
+from stiction.detect.verdict import decide
+from stiction.quantify.pipeline import Quantifier
+from stiction.quantify.window import Window
+from stiction.sim import two_parameter
+
+
+@pytest.fixture(scope="module")
+def quantifier():
+    q = Quantifier()
+    assert q.window_net is not None, "the shipped models hold a window network"
+    return q
+
+
+def _pair(kind: str, cause: str, nth: int):
+    """The ``nth`` loop of ``kind`` and ``cause`` of seed 9090, and the same loop with a healthy valve."""
+    loop = [lp for lp in two_parameter.draw(6, 9090) if lp.kind == kind and lp.cause == cause][nth]
+    healthy = dataclasses.replace(loop, s_pct=0.0, j_pct=0.0, cause="none")
+    sticky_rec, healthy_rec = two_parameter.simulate([loop, healthy], 1000)
+    return loop, sticky_rec, healthy_rec
+
+
+def _report(q, rec, name):
+    return q.quantify([Window(name, rec.op, rec.pv, rec.ts_s, sp=rec.sp)])[0]
+
+
+@pytest.mark.parametrize(("cause", "nth"), [("backlash", 4), ("stiction", 1)])
+def test_a_valve_fault_in_a_loop_that_does_not_cycle_is_found_and_its_healthy_twin_is_not(quantifier, cause, nth):
+    loop, sticky, healthy = _pair("flow", cause, nth)
+    assert sticky.shows_fault and loop.s_pct > 2.0  # the record shows it: the stem stuck and slipped
+    ev = evidence(sticky.op, sticky.pv, sticky.ts_s, sticky.sp)
+    assert not ev.oscillation.oscillating  # no limit cycle to read its shape
+    found = _report(quantifier, sticky, "sticky")
+    assert found.verdict == "stiction", found.warnings
+    assert any(w.startswith("window network:") for w in found.warnings)
+    # the window's statistics alone read it as healthy: the network is what finds it
+    alone = decide(quantifier.detector, ev, [])
+    assert alone.verdict != "stiction" and alone.stiction_probability < 0.5
+    twin = _report(quantifier, healthy, "healthy")
+    assert twin.verdict != "stiction" and twin.stiction_probability < 0.2
+
+
+def test_the_network_reads_the_loop_not_the_records_length_or_units(quantifier):
+    """The same loop over its last 600 samples and over 1,000, and with PV in engineering units."""
+    _, sticky, _ = _pair("flow", "backlash", 4)
+    reports = quantifier.quantify(
+        [
+            Window("a", sticky.op, sticky.pv, sticky.ts_s, sp=sticky.sp),
+            Window("b", sticky.op[-600:], sticky.pv[-600:], sticky.ts_s, sp=sticky.sp[-600:]),
+            Window("c", sticky.op, 3.0 * sticky.pv + 200.0, sticky.ts_s, sp=3.0 * sticky.sp + 200.0),
+        ]
+    )
+    assert [r.verdict for r in reports] == ["stiction"] * 3
+    np.testing.assert_allclose(reports[2].stiction_probability, reports[0].stiction_probability, atol=1e-4)
