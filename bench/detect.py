@@ -167,6 +167,7 @@ def bench_detect(
     bands: str = "plant",
     samples: int | None = None,
     window_net=None,
+    windows: bool = False,
 ) -> dict:
     """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
     network's); ``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
@@ -201,15 +202,23 @@ def bench_detect(
     windows = wn.family_windows(settings)
     out["window_net"] = {"windows": int(len(windows.shows_fault)), "simulate_s": time.perf_counter() - t2}
     records = [(r[1].op, r[1].pv, r[1].sp) for r in rows]
-    p, p_stat = np.zeros(len(rows)), np.zeros(len(rows))
+    p, p_stat, seq_all = np.zeros(len(rows)), np.zeros(len(rows)), np.full(len(rows), np.nan)
     for f in FAMILIES:
         d = training.train(sim.subset(sim.family != f))
         held = family == f
         net = wn.train(windows.subset(windows.family != f), settings)
         seq = _trained_sequence(net, [records[i] for i in np.flatnonzero(held)])
+        seq_all[held] = seq
         p[held] = d.stiction_probability(x[held], stuck[held], osc[held], sequence=seq)
         p_stat[held] = d.stiction_probability(x[held], stuck[held], osc[held])
     out["window_net"]["train_s"] = time.perf_counter() - t2 - out["window_net"]["simulate_s"]
+    if windows:  # every held-out window's figures, for analysis outside the bench
+        out["windows"] = [
+            {"family": r[0].family, "cause": r[0].cause, "shows_fault": bool(r[1].shows_fault), "blocked": bool(r[3]),
+             "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]),
+             "p_network": float(seq_all[i]), "s_pct": float(r[0].s_pct), "effect_noise": float(r[1].effect_noise)}
+            for i, r in enumerate(rows)
+        ]  # fmt: skip
     calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]
     calls_ours = np.array([c["ours"] for c in calls])
     # the label before 2026-11-25 and the detector's training label: the stem slipped, shown or not

@@ -140,6 +140,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--loops", type=int, default=20, help="simulated loops per cause in each family")
     t.add_argument("--seed", type=int, default=2026)
     t.add_argument(
+        "--windows",
+        action="store_true",
+        help="with --json, every held-out family window too: family, cause, label, each probability (for analysis)",
+    )
+    t.add_argument(
         "--bands",
         choices=("plant", "thesis"),
         default="plant",
@@ -243,7 +248,8 @@ def _detect(args) -> None:
         raise InputError(f"--loops {args.loops}: need at least 1")
     if args.samples is not None and args.samples < 100:
         raise InputError(f"--samples {args.samples}: need at least 100")
-    fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands, samples=args.samples)
+    fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands, samples=args.samples,
+                       windows=args.windows)  # fmt: skip
     _emit(args, _host(fig), print_table)
 
 

@@ -293,3 +293,28 @@ def test_the_shipped_detector_is_the_one_this_code_trains(tmp_path):
     compare(shipped, fresh, "")
     assert not stale, f"the shipped detector is not what this code trains ({', '.join(stale)}): retrain it with " \
         "`stiction train --detector --replace-shipped`"
+
+
+def test_the_statistics_and_the_window_network_combine_to_the_larger_unless_they_contradict_each_other():
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT, combined, disagree
+
+    stats = np.array([0.2, 0.6, 0.4, 0.1, 0.9, 0.3])
+    net = np.array([0.3, 0.7, 0.8, 0.9, 0.1, np.nan])
+    p = combined(stats, net)
+    np.testing.assert_allclose(p[:3], [0.3, 0.7, 0.8])  # agreeing, or one leaning: the larger
+    assert disagree(stats, net).tolist() == [False, False, False, True, True, False]
+    assert np.all((p[3:5] >= LEANS_AT) & (p[3:5] < STICTION_AT))  # contradicting: not settled either way
+    assert p[5] == 0.3  # no network reading: the statistics'
+
+
+def test_a_window_the_network_read_is_routed_by_the_detector_only_where_it_neither_cycles_nor_is_canonical(detector):
+    from stiction.detect.features import NAMES
+    from stiction.detect.verdict import combined
+
+    x = np.zeros((3, len(NAMES)))
+    seq = np.array([0.99, 0.99, 0.99])
+    osc, canon = np.array([False, True, False]), np.array([False, False, True])
+    base = detector.stiction_probability(x, None, osc, canon)
+    with_net = detector.stiction_probability(x, None, osc, canon, seq)
+    assert with_net[1] == base[1] and with_net[2] == base[2]  # the cycle and canonical models speak alone
+    assert with_net[0] == pytest.approx(float(combined(base[:1], seq[:1])[0])) and with_net[0] != base[0]
