@@ -225,13 +225,19 @@ def bench_detect(
     slipped = np.array([r[1].stem_slipped for r in rows])
     # the windows the verdict does not settle: those it leans on, and those whose data it does not read (bad_data:
     # a compressed archive's, a dead sensor's); counted neither way in the settled figures, their share said
-    unsettled = ((p >= LEANS_AT) & (p < STICTION_AT)) | np.array([r[3] for r in rows], bool)
+    blocked = np.array([r[3] for r in rows], bool)
+    unsettled = ((p >= LEANS_AT) & (p < STICTION_AT)) | blocked
     for f in FAMILIES:
         held = family == f
         row = _method_rows(calls, truth, osc, held)
         settled = held & ~unsettled
         row["ours_settled"] = _rates(p[settled] >= STICTION_AT, truth[settled])
         row["cannot_tell"] = float(np.mean(unsettled[held]))
+        # the same for the verdict without the window network
+        stat_unsettled = ((p_stat >= LEANS_AT) & (p_stat < STICTION_AT)) | blocked
+        stat_settled = held & ~stat_unsettled
+        row["statistics_settled"] = _rates(p_stat[stat_settled] >= STICTION_AT, truth[stat_settled])
+        row["statistics_cannot_tell"] = float(np.mean(stat_unsettled[held]))
         row["ours_stem_slipped"] = _rates(calls_ours[held], slipped[held])
         out["families"][f] = row
     out["by_cause"] = {
@@ -311,6 +317,10 @@ def print_table(fig: dict) -> None:
     settled = {f: r["ours_settled"]["balanced"] for f, r in fig["families"].items()}
     print(f"ours, the windows it settles (p below {LEANS_AT} or from {STICTION_AT}, data read): balanced "
           + ", ".join(f"{f} {v:.2f}" for f, v in settled.items()))  # fmt: skip
+    if all("statistics_settled" in r for r in fig["families"].values()):
+        print("statistics (without the window network), the windows it settles: balanced " + ", ".join(
+            f"{f} {r['statistics_settled']['balanced']:.2f} ({100 * r['statistics_cannot_tell']:.0f} % not settled)"
+            for f, r in fig["families"].items()))  # fmt: skip
     print("by cause (held out): " + "; ".join(
         f"{c} {100 * r['called']:.0f} % called ({100 * r['show_fault']:.0f} % show a fault)"
         for c, r in fig["by_cause"].items()))  # fmt: skip
