@@ -128,7 +128,7 @@ def _shipped_sequence(records) -> np.ndarray:
     if net is not None:
         for i, (op, pv, sp) in enumerate(records):
             out[i] = sequence_probabilities(net, np.asarray(op, float)[None], np.asarray(pv, float)[None], [sp])[0]
-    return out
+    return out  # one record at a time: measured records differ in length
 
 
 def _trained_sequence(model, records) -> np.ndarray:
@@ -170,7 +170,7 @@ def bench_detect(
     windows: bool = False,
 ) -> dict:
     """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
-    network's); ``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
+    network's); ``windows``: add every held-out family window's figures (``--windows``); ``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
     ``bands``: the scale of the judged sticky valves' bands (``sim.plant_families.BANDS``); ``samples``: the
     judged records' length (default the training windows', ``sim.plant_families.WINDOW_SAMPLES``: the same
     loops recorded longer, as exports and the agent's windows hold them).  The detectors
@@ -199,14 +199,14 @@ def bench_detect(
 
     settings = window_net or wn.WindowNetSettings()
     t2 = time.perf_counter()
-    windows = wn.family_windows(settings)
-    out["window_net"] = {"windows": int(len(windows.shows_fault)), "simulate_s": time.perf_counter() - t2}
+    net_windows = wn.family_windows(settings)
+    out["window_net"] = {"windows": int(len(net_windows.shows_fault)), "simulate_s": time.perf_counter() - t2}
     records = [(r[1].op, r[1].pv, r[1].sp) for r in rows]
     p, p_stat, seq_all = np.zeros(len(rows)), np.zeros(len(rows)), np.full(len(rows), np.nan)
     for f in FAMILIES:
         d = training.train(sim.subset(sim.family != f))
         held = family == f
-        net = wn.train(windows.subset(windows.family != f), settings)
+        net = wn.train(net_windows.subset(net_windows.family != f), settings)
         seq = _trained_sequence(net, [records[i] for i in np.flatnonzero(held)])
         seq_all[held] = seq
         p[held] = d.stiction_probability(x[held], stuck[held], osc[held], sequence=seq)
