@@ -170,7 +170,8 @@ def bench_detect(
     windows: bool = False,
 ) -> dict:
     """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
-    network's); ``windows``: add every held-out family window's figures (``--windows``); ``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
+    network's); ``windows``: add every held-out family window's figures (``--windows``); ``n_per_class``: judged
+    loops of each cause in each family; ``train_per_class``: the same for training;
     ``bands``: the scale of the judged sticky valves' bands (``sim.plant_families.BANDS``); ``samples``: the
     judged records' length (default the training windows', ``sim.plant_families.WINDOW_SAMPLES``: the same
     loops recorded longer, as exports and the agent's windows hold them).  The detectors

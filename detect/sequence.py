@@ -85,21 +85,55 @@ def chunk_starts(n: int) -> np.ndarray:
     return (n - span + np.round(np.linspace(0, span - CHUNK_SAMPLES, k))).astype(int)
 
 
-def chunks(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None) -> np.ndarray:
-    """[k, len(CHANNELS), min(N, CHUNK_SAMPLES)]: the record's chunks, each scaled on its own (as the network
-    was trained on whole windows); empty [0, ...] for a record shorter than ``MIN_SAMPLES`` or with NaN."""
-    op, pv = np.asarray(op, float), np.asarray(pv, float)
-    n = op.size
+def _chunk_rows(op: np.ndarray, pv: np.ndarray, sp: np.ndarray, has_sp: np.ndarray) -> np.ndarray:
+    """``net_input`` of every row of ``op``, ``pv``, ``sp`` [m, L] at once (``has_sp`` [m]: rows whose SP is
+    recorded; elsewhere the error is PV about its median, as ``net_input`` reads a missing SP)."""
+    d_op, d_pv = np.diff(op, axis=1), np.diff(pv, axis=1)
+    covariance = np.sum((d_op - d_op.mean(axis=1, keepdims=True)) * (d_pv - d_pv.mean(axis=1, keepdims=True)), axis=1)
+    op = np.where((covariance > 0)[:, None], -op, op)
+    both = np.stack([op, pv])  # [2, m, L]
+    lo, hi = np.percentile(both, [5.0, 95.0], axis=2)
+    scale = hi - lo + 1e-9 * np.maximum(1.0, np.max(np.abs(both), axis=2))  # [2, m]
+    centre = np.median(both, axis=2)
+    o = (op - centre[0][:, None]) / scale[0][:, None]
+    p = (pv - centre[1][:, None]) / scale[1][:, None]
+    e = np.where(has_sp[:, None], (pv - sp) / scale[1][:, None], p)
+    steps_o = np.diff(o, axis=1, prepend=o[:, :1]) * STEP_GAIN
+    steps_p = np.diff(p, axis=1, prepend=p[:, :1]) * STEP_GAIN
+    return np.clip(np.stack([o, p, e, steps_o, steps_p], axis=1), -CLIP, CLIP).astype(np.float32)
+
+
+def chunk_rows(op: np.ndarray, pv: np.ndarray, sps: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The chunks of every record of ``op``, ``pv`` [W, N] (``sps``: each record's setpoint or None), made at once:
+    ``(x [k * readable, C, min(N, CHUNK_SAMPLES)], readable [W] bool)``, the chunks of each readable record in a
+    row of ``len(chunk_starts(N))``; a record shorter than ``MIN_SAMPLES`` or with NaN in OP or PV is not read, a
+    setpoint with NaN is read as none.  Row for row what ``chunks`` makes (the test compares them)."""
+    op, pv = np.atleast_2d(np.asarray(op, float)), np.atleast_2d(np.asarray(pv, float))
+    n_rows, n = op.shape
+    sps = [None] * n_rows if sps is None else list(sps)
     length = min(n, CHUNK_SAMPLES)
-    sp = None if sp is None else np.asarray(sp, float)
-    if n < MIN_SAMPLES or not (np.all(np.isfinite(op)) and np.all(np.isfinite(pv))):
-        return np.zeros((0, len(CHANNELS), length), np.float32)
-    if sp is not None and not np.all(np.isfinite(sp)):
-        sp = None
-    return np.stack(
-        [net_input(op[s : s + length], pv[s : s + length], None if sp is None else sp[s : s + length])
-         for s in chunk_starts(n)]
-    )  # fmt: skip
+    readable = np.all(np.isfinite(op), axis=1) & np.all(np.isfinite(pv), axis=1) & (n >= MIN_SAMPLES)
+    if not readable.any():
+        return np.zeros((0, len(CHANNELS), length), np.float32), readable
+    sp = np.zeros_like(pv)
+    has_sp = np.zeros(n_rows, bool)
+    for i, row in enumerate(sps):
+        if row is not None and np.all(np.isfinite(row)):
+            sp[i], has_sp[i] = row, True
+    starts = chunk_starts(n)
+    idx = starts[:, None] + np.arange(length)  # [k, L]
+    rows = np.flatnonzero(readable)
+
+    def cut(x):
+        return x[rows][:, idx].reshape(-1, length)  # [readable * k, L]
+
+    return _chunk_rows(cut(op), cut(pv), cut(sp), np.repeat(has_sp[rows], len(starts))), readable
+
+
+def chunks(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None) -> np.ndarray:
+    """[k, len(CHANNELS), min(N, CHUNK_SAMPLES)]: one record's chunks, each scaled on its own (as the network was
+    trained on whole windows); empty [0, ...] for a record shorter than ``MIN_SAMPLES`` or with NaN."""
+    return chunk_rows(np.asarray(op, float)[None], np.asarray(pv, float)[None], [sp])[0]
 
 
 def probability_of(chunk_logits: np.ndarray) -> float:

@@ -57,3 +57,19 @@ def test_a_record_the_network_cannot_read_gives_no_chunk_and_no_probability(reco
 def test_the_probability_is_the_one_of_the_chunks_mean_log_odds():
     assert sequence.probability_of(np.array([0.0])) == pytest.approx(0.5)
     assert sequence.probability_of(np.array([-2.0, 4.0])) == pytest.approx(1 / (1 + np.exp(-1.0)))
+
+
+def test_the_batch_input_is_the_one_chunk_by_chunk_of_the_simple_reference(record):
+    """``chunk_rows`` (every chunk of every record at once) against ``net_input`` applied to each chunk."""
+    n = 1300
+    op = np.stack([record.op[:n], 100.0 - record.op[100 : 100 + n], record.op[:n]])  # the second direct-acting
+    pv = np.stack([record.pv[:n], record.pv[100 : 100 + n], record.pv[:n]])
+    sps = [record.sp[:n], None, None]
+    pv[2, 7] = np.nan  # not readable
+    x, readable = sequence.chunk_rows(op, pv, sps)
+    assert readable.tolist() == [True, True, False]
+    starts = sequence.chunk_starts(n)
+    want = [sequence.net_input(op[i, s : s + 600], pv[i, s : s + 600], None if sps[i] is None else sps[i][s : s + 600])
+            for i in (0, 1) for s in starts]  # fmt: skip
+    np.testing.assert_allclose(x, np.stack(want), atol=1e-6)
+    np.testing.assert_allclose(sequence.chunks(op[1], pv[1]), x[len(starts) :], atol=1e-6)
