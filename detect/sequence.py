@@ -74,13 +74,13 @@ def net_input(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None) -> n
     return np.clip(np.stack([o, p, e, steps_o, steps_p]), -CLIP, CLIP).astype(np.float32)
 
 
-def chunk_starts(n: int) -> np.ndarray:
+def chunk_starts(n: int, max_chunks: int = MAX_CHUNKS) -> np.ndarray:
     """Where each chunk of a record of ``n`` samples starts: one chunk of the whole record up to
-    ``CHUNK_SAMPLES``; beyond, as many as cover its last ``MAX_CHUNKS * CHUNK_SAMPLES`` samples, evenly spread
+    ``CHUNK_SAMPLES``; beyond, as many as cover its last ``max_chunks * CHUNK_SAMPLES`` samples, evenly spread
     (overlapping where the stretch is not a whole number of chunks), the last ending with the record."""
     if n <= CHUNK_SAMPLES:
         return np.zeros(1, int)
-    span = min(n, MAX_CHUNKS * CHUNK_SAMPLES)
+    span = min(n, max(1, max_chunks) * CHUNK_SAMPLES)
     k = int(np.ceil(span / CHUNK_SAMPLES))
     return (n - span + np.round(np.linspace(0, span - CHUNK_SAMPLES, k))).astype(int)
 
@@ -103,11 +103,13 @@ def _chunk_rows(op: np.ndarray, pv: np.ndarray, sp: np.ndarray, has_sp: np.ndarr
     return np.clip(np.stack([o, p, e, steps_o, steps_p], axis=1), -CLIP, CLIP).astype(np.float32)
 
 
-def chunk_rows(op: np.ndarray, pv: np.ndarray, sps: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+def chunk_rows(
+    op: np.ndarray, pv: np.ndarray, sps: list | None = None, max_chunks: int = MAX_CHUNKS
+) -> tuple[np.ndarray, np.ndarray]:
     """The chunks of every record of ``op``, ``pv`` [W, N] (``sps``: each record's setpoint or None), made at once:
     ``(x [k * readable, C, min(N, CHUNK_SAMPLES)], readable [W] bool)``, the chunks of each readable record in a
-    row of ``len(chunk_starts(N))``; a record shorter than ``MIN_SAMPLES`` or with NaN in OP or PV is not read, a
-    setpoint with NaN is read as none.  Row for row what ``chunks`` makes (the test compares them)."""
+    row of ``k = len(chunk_starts(N, max_chunks))``; a record shorter than ``MIN_SAMPLES`` or with NaN in OP or PV
+    is not read, a setpoint with NaN is read as none.  Row for row what ``chunks`` makes (the test compares them)."""
     op, pv = np.atleast_2d(np.asarray(op, float)), np.atleast_2d(np.asarray(pv, float))
     n_rows, n = op.shape
     sps = [None] * n_rows if sps is None else list(sps)
@@ -120,7 +122,7 @@ def chunk_rows(op: np.ndarray, pv: np.ndarray, sps: list | None = None) -> tuple
     for i, row in enumerate(sps):
         if row is not None and np.all(np.isfinite(row)):
             sp[i], has_sp[i] = row, True
-    starts = chunk_starts(n)
+    starts = chunk_starts(n, max_chunks)
     idx = starts[:, None] + np.arange(length)  # [k, L]
     rows = np.flatnonzero(readable)
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stiction.detect import features
+from stiction.detect import features, sequence
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide
 from stiction.ident import controller
 from stiction.ident.checks import blocking, data_checks_rows
@@ -77,7 +77,9 @@ class Result:
 class Quantifier:
     """Loads the models once; ``quantify`` is then a pure function of the windows."""
 
-    def __init__(self, models_dir: Path | None = None):
+    def __init__(self, models_dir: Path | None = None, sequence_chunks: int = sequence.MAX_CHUNKS):
+        """``sequence_chunks``: the most chunks of a window the window network reads (``detect.sequence``)."""
+        self.sequence_chunks = sequence_chunks
         self.thesis, self.cycle = load_models(models_dir)
         self.model_version = model_version(self.thesis, self.cycle)
         own = Path(models_dir) / DETECTOR_FILE if models_dir is not None else None
@@ -140,7 +142,9 @@ class Quantifier:
             read &= np.array([not blocking(problems) for problems in problems_all])
             if read.any():
                 idx = np.flatnonzero(read)
-                seq[idx] = sequence_probabilities(self.window_net, op[idx], pv[idx], [sps[i] for i in idx])
+                seq[idx] = sequence_probabilities(
+                    self.window_net, op[idx], pv[idx], [sps[i] for i in idx], self.sequence_chunks
+                )
         verdicts = [
             decide(self.detector, ev, [c.message for c in blocking(problems)], bool(known), float(s))
             for ev, problems, known, s in zip(evs, problems_all, level, seq, strict=True)

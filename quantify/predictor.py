@@ -104,11 +104,13 @@ def load_window_net(models_dir: Path | None = None) -> Predictor | None:
     return None
 
 
-def sequence_probabilities(net: Predictor, op: np.ndarray, pv: np.ndarray, sps: list) -> np.ndarray:
+def sequence_probabilities(
+    net: Predictor, op: np.ndarray, pv: np.ndarray, sps: list, max_chunks: int = sequence.MAX_CHUNKS
+) -> np.ndarray:
     """The window network's probability that each window [n, N] shows a valve fault (nan where it reads none:
-    too short, or NaN in the record): every window's chunks made and run at once, each window's chunks' mean
-    log-odds."""
-    x, readable = sequence.chunk_rows(op, pv, sps)
+    too short, or NaN in the record): every window's chunks (at most ``max_chunks``) made and run at once, each
+    window's chunks' mean log-odds."""
+    x, readable = sequence.chunk_rows(op, pv, sps, max_chunks)
     out = np.full(len(readable), np.nan)
     if not len(x):
         return out

@@ -38,7 +38,7 @@ def test_chunks_cover_the_records_end_and_at_most_the_stretch_quantify_reads():
         starts = sequence.chunk_starts(n)
         assert starts[-1] + n_chunk == n and starts.min() >= max(0, n - most * n_chunk)
         assert len(starts) <= most and np.all(np.diff(starts) > 0) and np.all(np.diff(starts) <= n_chunk)
-    assert sequence.chunk_starts(1000).tolist() == [0, 400]
+    assert sequence.chunk_starts(1000).tolist() == [0, 400] and sequence.chunk_starts(1000, 1).tolist() == [400]
 
 
 def test_a_record_the_network_cannot_read_gives_no_chunk_and_no_probability(record):
