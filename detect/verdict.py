@@ -144,6 +144,11 @@ def at_equal_priors(model: Logistic, share: float, positive: str = "stiction") -
     return Logistic(model.classes, model.mean, model.scale, model.weights, model.bias + shift)
 
 
+UNSETTLED_MARGIN = 0.01
+"""An unsettled window's probability stays this far below ``STICTION_AT``: a report that reads 0.5 and is not
+called sticky would read as a contradiction (``short_of`` does the same for the text)."""
+
+
 def disagree(statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
     """Whether the window's statistics and the window network contradict each other: one reads a fault
     (``STICTION_AT`` or more), the other reads the window as settled healthy (below ``LEANS_AT``)."""
@@ -165,7 +170,7 @@ def combined(statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
     a quarter of the windows are not settled, and the settled ones reach 0.89 (the statistics 0.78)."""
     statistics, network = np.asarray(statistics, float), np.asarray(network, float)
     larger = np.fmax(statistics, network)
-    unsettled = np.clip((statistics + network) / 2, LEANS_AT, np.nextafter(STICTION_AT, 0.0))
+    unsettled = np.clip((statistics + network) / 2, LEANS_AT, STICTION_AT - UNSETTLED_MARGIN)
     return np.where(disagree(statistics, network), unsettled, larger)
 
 
