@@ -360,7 +360,7 @@ def decide(
         read = (f"window network: OP and PV's course, read sample by sample in a window without a regular cycle, "
                 f"gives {seq[0]:.2f} (the window's statistics alone {alone[0]:.2f})")  # fmt: skip
         if disagree(alone, seq)[0]:
-            read += ": the two readings contradict each other, and the data do not settle it"
+            read += ": the two readings contradict each other"
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)
         reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "") + (f"; {read}" if read else "")
