@@ -229,6 +229,16 @@ class Detector:
     the plant-trained models, which read an irregular cycle as no cycle, called 86-91 % of the thesis's
     noisy sets (``detect.training.canonical_set``)."""
 
+    def route(self, n: int, oscillating: np.ndarray | None, canonical: np.ndarray | None) -> np.ndarray:
+        """Each of ``n`` rows' model: 0 the general (and the window network beside it), 1 the cycle model's,
+        2 the canonical model's (``stiction_probability``)."""
+        which = np.zeros(n, int)
+        if oscillating is not None and self.cycle is not None:
+            which[np.asarray(oscillating, bool)] = 1
+        if canonical is not None and self.canonical is not None:
+            which[np.asarray(canonical, bool)] = 2
+        return which
+
     def stiction_probability(
         self,
         x: np.ndarray,
@@ -245,11 +255,7 @@ class Detector:
         speaks beside the general model for a window that neither cycles nor is the canonical loop (``combined``).
         Among the regular cycles the cycle model ranks as well or better and speaks alone."""
         x = np.atleast_2d(x)
-        which = np.zeros(x.shape[0], int)  # each row's model: 0 the general, 1 the cycle's, 2 the canonical
-        if oscillating is not None and self.cycle is not None:
-            which[np.asarray(oscillating, bool)] = 1
-        if canonical is not None and self.canonical is not None:
-            which[np.asarray(canonical, bool)] = 2
+        which = self.route(x.shape[0], oscillating, canonical)
         p = np.empty(x.shape[0])
         for k, model in enumerate((self.stiction, self.cycle, self.canonical)):
             rows = which == k
@@ -353,9 +359,8 @@ def decide(
     osc, known = np.array([ev.oscillation.oscillating]), np.array([canonical])
     seq = None if sequence_p is None else np.array([sequence_p], float)
     p = float(detector.stiction_probability(x, ev.stuck[None, :], osc, known, seq)[0])
-    general = not (osc[0] and detector.cycle is not None) and not (canonical and detector.canonical is not None)
     read = None
-    if general and seq is not None and np.isfinite(seq[0]):
+    if detector.route(1, osc, known)[0] == 0 and seq is not None and np.isfinite(seq[0]):
         alone = detector.stiction_probability(x, None, osc, known)
         read = (f"window network: OP and PV's course, read sample by sample in a window without a regular cycle, "
                 f"gives {seq[0]:.2f} (the window's statistics alone {alone[0]:.2f})")  # fmt: skip

@@ -134,20 +134,21 @@ class Quantifier:
         identified = policy.canonical_level(op, pv, ts_s, sps, ~declared)
         level = declared | identified
         problems_all = data_checks_rows(op, pv)
+        blocked = [[c.message for c in blocking(problems)] for problems in problems_all]
         evs = features.evidence_rows(op, pv, ts_s, sps)
         seq = np.full(n, np.nan)
         if self.window_net is not None:
             # only where the network speaks: a window that neither cycles nor is the canonical loop, and reads
             read = np.array([not ev.oscillation.oscillating for ev in evs]) & ~level
-            read &= np.array([not blocking(problems) for problems in problems_all])
+            read &= np.array([not said for said in blocked])
             if read.any():
                 idx = np.flatnonzero(read)
                 seq[idx] = sequence_probabilities(
                     self.window_net, op[idx], pv[idx], [sps[i] for i in idx], self.sequence_chunks
                 )
         verdicts = [
-            decide(self.detector, ev, [c.message for c in blocking(problems)], bool(known), float(s))
-            for ev, problems, known, s in zip(evs, problems_all, level, seq, strict=True)
+            decide(self.detector, ev, said, bool(known), float(s))
+            for ev, said, known, s in zip(evs, blocked, level, seq, strict=True)
         ]
         clock = self._lap("verdict", clock)
         sticky = np.array([v.verdict == "stiction" for v in verdicts])
