@@ -132,16 +132,14 @@ def _shipped_sequence(records) -> np.ndarray:
 
 
 def _trained_sequence(model, records) -> np.ndarray:
-    """A trained ``trainer.nets.WindowEnsemble``'s probability of each record (op, pv, sp) (torch)."""
+    """A trained ``trainer.nets.WindowEnsemble``'s probability of each record (op, pv, sp) (torch), the records of
+    one length (the judged families'), their chunks made and run at once as the runtime's are."""
     from stiction.detect import sequence
     from stiction.trainer.window_net import chunk_logits
 
-    out = np.full(len(records), np.nan)
-    for i, (op, pv, sp) in enumerate(records):
-        c = sequence.chunks(op, pv, sp)
-        if len(c):
-            out[i] = sequence.probability_of(chunk_logits(model, c))
-    return out
+    op, pv = np.stack([r[0] for r in records]), np.stack([r[1] for r in records])
+    x, readable = sequence.chunk_rows(op, pv, [r[2] for r in records])
+    return sequence.record_probabilities(chunk_logits(model, x), readable)
 
 
 def _judged(rows, detector) -> dict:

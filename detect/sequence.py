@@ -138,8 +138,11 @@ def chunks(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None) -> np.n
     return chunk_rows(np.asarray(op, float)[None], np.asarray(pv, float)[None], [sp])[0]
 
 
-def probability_of(chunk_logits: np.ndarray) -> float:
-    """A record's probability from its chunks' log-odds: the mean log-odds (nan for no chunk)."""
-    if not len(chunk_logits):
-        return float("nan")
-    return float(1.0 / (1.0 + np.exp(-float(np.mean(chunk_logits)))))
+def record_probabilities(chunk_logits: np.ndarray, readable: np.ndarray) -> np.ndarray:
+    """Each record's probability from its chunks' log-odds (``chunk_rows``'s chunks, in its order): the one of
+    their mean log-odds; nan for a record that was not read."""
+    out = np.full(len(readable), np.nan)
+    if readable.any():
+        logits = np.asarray(chunk_logits, float).reshape(int(readable.sum()), -1)
+        out[readable] = 1.0 / (1.0 + np.exp(-logits.mean(axis=1)))
+    return out

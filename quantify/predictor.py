@@ -111,9 +111,4 @@ def sequence_probabilities(
     too short, or NaN in the record): every window's chunks (at most ``max_chunks``) made and run at once, each
     window's chunks' mean log-odds."""
     x, readable = sequence.chunk_rows(op, pv, sps, max_chunks)
-    out = np.full(len(readable), np.nan)
-    if not len(x):
-        return out
-    logits = net.run(x)["logit"].reshape(int(readable.sum()), -1)
-    out[readable] = 1.0 / (1.0 + np.exp(-logits.mean(axis=1)))
-    return out
+    return sequence.record_probabilities(net.run(x)["logit"] if len(x) else np.zeros(0), readable)

@@ -122,8 +122,7 @@ def chunk_logits(model: WindowEnsemble, x: np.ndarray, batch: int = 512) -> np.n
     return np.concatenate(out) if out else np.zeros(0, np.float32)
 
 
-def write(model: WindowEnsemble, models_dir: Path, settings: WindowNetSettings, windows: WindowSet,
-          accuracy: dict | None = None) -> ModelCard:  # fmt: skip
+def write(model: WindowEnsemble, models_dir: Path, settings: WindowNetSettings, windows: WindowSet) -> ModelCard:
     """The ONNX file and its card in ``models_dir``."""
     models_dir = Path(models_dir)
     models_dir.mkdir(parents=True, exist_ok=True)
@@ -159,7 +158,7 @@ def write(model: WindowEnsemble, models_dir: Path, settings: WindowNetSettings, 
             "sha256": windows.digest(),
         },
         settings=asdict(settings),
-        accuracy=accuracy or {},
+        accuracy={},  # judged held out by ``stiction bench detect``, not at training
         created=datetime.now(UTC).isoformat(timespec="seconds"),
     )
     (models_dir / f"{NAME}.card.json").write_text(card.model_dump_json(indent=2) + "\n")

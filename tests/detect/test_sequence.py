@@ -47,7 +47,7 @@ def test_a_record_the_network_cannot_read_gives_no_chunk_and_no_probability(reco
     pv[100] = np.nan
     gap = sequence.chunks(record.op, pv)
     assert short.shape[0] == 0 and gap.shape[0] == 0
-    assert np.isnan(sequence.probability_of(short[:, 0, 0]))
+    assert np.isnan(sequence.record_probabilities(np.zeros(0), np.array([False]))).all()
     # a setpoint with a gap is read as none, the record still is
     sp = record.sp.copy()
     sp[5] = np.nan
@@ -55,8 +55,8 @@ def test_a_record_the_network_cannot_read_gives_no_chunk_and_no_probability(reco
 
 
 def test_the_probability_is_the_one_of_the_chunks_mean_log_odds():
-    assert sequence.probability_of(np.array([0.0])) == pytest.approx(0.5)
-    assert sequence.probability_of(np.array([-2.0, 4.0])) == pytest.approx(1 / (1 + np.exp(-1.0)))
+    p = sequence.record_probabilities(np.array([0.0, 0.0, -2.0, 4.0]), np.array([True, False, True]))
+    assert p[0] == pytest.approx(0.5) and np.isnan(p[1]) and p[2] == pytest.approx(1 / (1 + np.exp(-1.0)))
 
 
 def test_the_batch_input_is_the_one_chunk_by_chunk_of_the_simple_reference(record):
