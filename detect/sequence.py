@@ -7,7 +7,7 @@ its own family at another seed); a small convolutional network reading OP and PV
 windows at 0.93 (trained on 10,500 windows of every family): the evidence is in the record, and the statistics
 lose it (docs/benchmarks.md, "The window network").  This module makes the network's input; the network is
 trained by ``trainer.window_net`` and run by ``quantify.predictor`` (onnxruntime), and the verdict weighs its
-probability where the window does not cycle (``detect.verdict``).
+probability beside the statistics in every window but the canonical loop's (``detect.verdict``).
 
 Pure numpy, so that the trainer and the runtime make the input the same way.
 """

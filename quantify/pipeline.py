@@ -138,9 +138,9 @@ class Quantifier:
         evs = features.evidence_rows(op, pv, ts_s, sps)
         seq = np.full(n, np.nan)
         if self.window_net is not None:
-            # only where the network speaks: a window that neither cycles nor is the canonical loop, and reads
-            read = np.array([not ev.oscillation.oscillating for ev in evs]) & ~level
-            read &= np.array([not said for said in blocked])
+            # only where the network speaks: a window that is not the canonical loop's (its own model reads it), and
+            # whose data are read
+            read = ~level & np.array([not said for said in blocked])
             if read.any():
                 idx = np.flatnonzero(read)
                 seq[idx] = sequence_probabilities(

@@ -36,7 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--window-net",
         action="store_true",
-        help="train only the window network the verdict reads where a loop does not cycle (torch, about 3 minutes)",
+        help="train only the window network the verdict reads beside its statistics (torch, about 6 minutes)",
     )
     p.add_argument(
         "--measured", type=Path, metavar="DIR", help="labelled measured exports (loops.json beside) for --detector"

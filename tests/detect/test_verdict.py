@@ -307,14 +307,18 @@ def test_the_statistics_and_the_window_network_combine_to_the_larger_unless_they
     assert p[5] == 0.3  # no network reading: the statistics'
 
 
-def test_a_window_the_network_read_is_routed_by_the_detector_only_where_it_neither_cycles_nor_is_canonical(detector):
+def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_canonical_loops(detector):
     from stiction.detect.features import NAMES
     from stiction.detect.verdict import combined
 
-    x = np.zeros((3, len(NAMES)))
-    seq = np.array([0.99, 0.99, 0.99])
-    osc, canon = np.array([False, True, False]), np.array([False, False, True])
+    x = np.zeros((4, len(NAMES)))
+    seq = np.array([0.99, 0.99, 0.99, np.nan])
+    osc, canon = np.array([False, True, False, True]), np.array([False, False, True, False])
     base = detector.stiction_probability(x, None, osc, canon)
     with_net = detector.stiction_probability(x, None, osc, canon, seq)
-    assert with_net[1] == base[1] and with_net[2] == base[2]  # the cycle and canonical models speak alone
-    assert with_net[0] == pytest.approx(float(combined(base[:1], seq[:1])[0])) and with_net[0] != base[0]
+    assert base[0] != base[1]  # the general and the cycle model read the same statistics differently
+    for k in (0, 1):  # each beside its own statistics' model
+        assert with_net[k] == pytest.approx(float(combined(base[k : k + 1], seq[k : k + 1])[0]))
+        assert with_net[k] != base[k]
+    assert with_net[2] == base[2]  # the canonical loop's model speaks alone
+    assert with_net[3] == base[3]  # a window the network did not read: the cycle model alone

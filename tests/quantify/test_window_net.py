@@ -1,6 +1,8 @@
 """The window network in the verdict: a valve fault hidden in a loop that does not cycle, which the window's
 statistics barely lean on, is found, and the same loop with a healthy valve is not called; where the statistics
-read the window as healthy and the network as sticky, the report says the data do not settle it.
+read the window as healthy and the network as sticky, the report says the data do not settle it; and among regular
+cycles, where the network speaks beside the cycle model, an external square load the cycle model alone would call
+is not called.
 
 The loops come from the independent simulator (``sim.two_parameter``: Choudhury's valve under SIMC-tuned PI, a
 slow wander on the load), which no model of the verdict is trained on; seed 9090, recorded 1,000 samples (the
@@ -78,3 +80,28 @@ def test_the_network_reads_the_loop_not_the_records_length_or_units(quantifier):
     )
     assert [r.verdict for r in reports] == ["stiction"] * 3
     np.testing.assert_allclose(reports[2].stiction_probability, reports[0].stiction_probability, atol=1e-4)
+
+
+def test_a_regular_cycle_is_read_by_the_network_too_an_upstream_square_load_the_cycle_model_calls_is_not_called(
+    quantifier,
+):
+    """An external load that is a filtered square wave (an upstream loop's sticky valve) makes a flow loop with a
+    healthy valve cycle regularly; the cycle model alone reads it at 0.82.  The network reads OP and PV as a healthy
+    valve's, the two contradict each other: the report is not called sticky and says the data do not settle it.
+    The same simulator's sticky limit cycle stays called, both readings agreeing."""
+    loop = [lp for lp in two_parameter.draw(6, 9090) if lp.kind == "flow" and lp.cause == "square"][3]
+    (rec,) = two_parameter.simulate([loop], 1000)
+    ev = evidence(rec.op, rec.pv, rec.ts_s, rec.sp)
+    assert ev.oscillation.oscillating and not rec.shows_fault
+    alone = decide(quantifier.detector, ev, [])
+    assert alone.stiction_probability >= 0.5  # the cycle model alone would call it
+    report = _report(quantifier, rec, "square")
+    assert report.verdict == "other_cause" and 0.35 <= report.stiction_probability < 0.5
+    said = " ".join(report.warnings)
+    assert "with a regular cycle" in said and "contradict each other" in said and "do not settle it" in said
+
+    sticky = [lp for lp in two_parameter.draw(6, 9090) if lp.kind == "flow" and lp.cause == "stiction"][0]
+    (cycle,) = two_parameter.simulate([sticky], 1000)
+    assert evidence(cycle.op, cycle.pv, cycle.ts_s, cycle.sp).oscillation.oscillating and cycle.shows_fault
+    found = _report(quantifier, cycle, "sticky cycle")
+    assert found.verdict == "stiction" and any(w.startswith("window network:") for w in found.warnings)
