@@ -307,9 +307,20 @@ def test_the_statistics_and_the_window_network_combine_to_the_larger_unless_they
     assert p[5] == 0.3  # no network reading: the statistics'
 
 
+def test_beside_a_cycle_the_network_raises_a_call_or_unsettles_a_healthy_reading_but_never_unsettles_a_call():
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT, beside_cycle
+
+    cycle = np.array([0.8, 0.8, 0.2, 0.2, 0.6])
+    net = np.array([0.1, 0.9, 0.9, 0.1, np.nan])
+    p = beside_cycle(cycle, net)
+    assert p[0] == 0.8 and p[1] == 0.9  # the cycle model's call stands; the network may raise it
+    assert LEANS_AT <= p[2] < STICTION_AT  # the network reads a fault the cycle model reads healthy: not settled
+    assert p[3] == 0.2 and p[4] == 0.6  # agreeing healthy, or no network reading: the cycle model's
+
+
 def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_canonical_loops(detector):
     from stiction.detect.features import NAMES
-    from stiction.detect.verdict import combined
+    from stiction.detect.verdict import beside_cycle, combined
 
     x = np.zeros((4, len(NAMES)))
     seq = np.array([0.99, 0.99, 0.99, np.nan])
@@ -317,8 +328,8 @@ def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_c
     base = detector.stiction_probability(x, None, osc, canon)
     with_net = detector.stiction_probability(x, None, osc, canon, seq)
     assert base[0] != base[1]  # the general and the cycle model read the same statistics differently
-    for k in (0, 1):  # each beside its own statistics' model
-        assert with_net[k] == pytest.approx(float(combined(base[k : k + 1], seq[k : k + 1])[0]))
+    for k, rule in ((0, combined), (1, beside_cycle)):  # each beside its own statistics' model
+        assert with_net[k] == pytest.approx(float(rule(base[k : k + 1], seq[k : k + 1])[0]))
         assert with_net[k] != base[k]
     assert with_net[2] == base[2]  # the canonical loop's model speaks alone
     assert with_net[3] == base[3]  # a window the network did not read: the cycle model alone
