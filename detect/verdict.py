@@ -157,11 +157,10 @@ def disagree(statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
 
 
 def combined(statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
-    """The stiction probability of a window from its statistics' reading (the general model's, or the cycle model's
-    where it cycles regularly) and the window network's reading of OP and PV themselves: the larger of the two,
-    unless they contradict each
-    other (``disagree``), where the data do not settle it: their mean, held within the band the verdict reads as
-    leaning to stiction without settling it (``LEANS_AT`` up to ``STICTION_AT``).
+    """The stiction probability of a window that does not cycle regularly, from the general model's reading of its
+    statistics and the window network's reading of OP and PV themselves: the larger of the two, unless they
+    contradict each other (``disagree``), where the data do not settle it: their mean, held within the band the
+    verdict reads as leaning to stiction without settling it (``LEANS_AT`` up to ``STICTION_AT``).
 
     Chosen on seed 3031's families held out one at a time (the design seed; docs/benchmarks.md, "The window
     network"): the two miss different windows, and the larger of the two raised the families' balanced accuracy

@@ -44,7 +44,7 @@ class WindowNetSettings:
     """Family draws (``sim.plant_families.family_loops``, ``n_per_cause`` loops of every cause in every family
     each): 36 are about 32,000 windows.  Held out, the network kept improving from 5,000 to 10,000 windows, and
     from 16,000 to 32,000 (seed 3031's families one at a time: AUC on the windows that do not cycle 0.83-0.87 ->
-    0.80-0.94, and on the regular cycles it then reads as surely as the cycle model: ``detect.verdict.combined``)."""
+    0.80-0.94; beside the cycle model it then gained on the held-out families: ``detect.verdict.beside_cycle``)."""
     n_per_cause: int = 20
     bands: str = "plant"
     members: int = 3
