@@ -104,11 +104,19 @@ def load_window_net(models_dir: Path | None = None) -> Predictor | None:
     return None
 
 
+NET_BATCH_CHUNKS = 32
+"""Chunks run through the window network at a time.  onnxruntime keeps the memory of its largest run for the next
+(its arena): the agent's batch of 200 windows in one run kept 44 MB more than runs of 32 chunks (9 MB), at the
+same cost a chunk (0.33-0.43 ms here), and took an agent of 20,000 plant-like loops from 494 to 528 MB
+(``stiction bench throughput --loops 20000 --batch-s 5 --mix plant``, docs/scaling.md)."""
+
+
 def sequence_probabilities(
     net: Predictor, op: np.ndarray, pv: np.ndarray, sps: list, max_chunks: int = sequence.MAX_CHUNKS
 ) -> np.ndarray:
     """The window network's probability that each window [n, N] shows a valve fault (nan where it reads none:
-    too short, or NaN in the record): every window's chunks (at most ``max_chunks``) made and run at once, each
-    window's chunks' mean log-odds."""
+    too short, or NaN in the record): every window's chunks (at most ``max_chunks``) made at once and run
+    ``NET_BATCH_CHUNKS`` at a time, each window's chunks' mean log-odds."""
     x, readable = sequence.chunk_rows(op, pv, sps, max_chunks)
-    return sequence.record_probabilities(net.run(x)["logit"] if len(x) else np.zeros(0), readable)
+    logits = [net.run(x[i : i + NET_BATCH_CHUNKS])["logit"] for i in range(0, len(x), NET_BATCH_CHUNKS)]
+    return sequence.record_probabilities(np.concatenate(logits) if logits else np.zeros(0), readable)

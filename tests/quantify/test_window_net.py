@@ -98,3 +98,21 @@ def test_a_deadband_limit_cycle_the_cycle_model_misses_is_found_by_the_network_b
     assert report.verdict == "stiction", report.warnings
     said = [w for w in report.warnings if w.startswith("window network:")]
     assert said and "with a regular cycle" in said[0]
+
+
+def test_the_network_run_a_slice_at_a_time_gives_what_one_run_of_every_chunk_gives(quantifier):
+    """``sequence_probabilities`` runs the chunks ``NET_BATCH_CHUNKS`` at a time (the runtime's memory); the
+    reference runs every chunk at once and averages each window's log-odds by hand."""
+    from stiction.detect import sequence
+    from stiction.quantify.predictor import NET_BATCH_CHUNKS, sequence_probabilities
+
+    loops = two_parameter.draw(4, 9090)[: NET_BATCH_CHUNKS + 5]
+    recs = two_parameter.simulate(loops, 1400)
+    op, pv = np.stack([r.op for r in recs]), np.stack([r.pv for r in recs])
+    sps = [r.sp for r in recs]
+    got = sequence_probabilities(quantifier.window_net, op, pv, sps, max_chunks=3)
+    x, readable = sequence.chunk_rows(op, pv, sps, 3)
+    assert len(x) > 2 * NET_BATCH_CHUNKS  # more than two slices, the last a part
+    logits = quantifier.window_net.run(x)["logit"].reshape(len(recs), -1)
+    want = 1 / (1 + np.exp(-logits.mean(axis=1)))
+    np.testing.assert_allclose(got, np.where(readable, want, np.nan), rtol=1e-5, atol=1e-6)
