@@ -157,93 +157,23 @@ def disagree(statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
 
 
 def combined(statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
-    """The larger of two probabilities, unless they contradict each other (``disagree``), where the data do not
-    settle it: their mean, held within the band the verdict reads as leaning to stiction without settling it
-    (``LEANS_AT`` up to ``STICTION_AT``).  What ``beside_cycle`` makes of a cycle the cycle model reads as healthy.
+    """The stiction probability of a window that does not cycle regularly, from the general model's reading of its
+    statistics and the window network's reading of OP and PV themselves: the larger of the two, unless they
+    contradict each other (``disagree``), where the data do not settle it: their mean, held within the band the
+    verdict reads as leaning to stiction without settling it (``LEANS_AT`` up to ``STICTION_AT``).
 
-    It read the windows that do not cycle too until 2026-11-29 (chosen on seed 3031's families held out one at a
-    time: the larger of the two raised their balanced accuracy from 0.73 to 0.80, but called 19 % of the healthy
-    valves' windows that do not cycle sticky; read as unsettled where they contradict each other, the settled ones
-    reached 0.89).  It left a sticky valve the network found and the statistics did not unsettled, which is most of
-    the sticky windows the network finds; ``NETWORK_STACK`` reads those windows now."""
+    Chosen on seed 3031's families held out one at a time (the design seed; docs/benchmarks.md, "The window
+    network"): the two miss different windows, and the larger of the two raised the families' balanced accuracy
+    from 0.73 (the statistics) to 0.80, but called 19 % of the healthy valves' windows that do not cycle sticky
+    (the statistics 7 %): a network trained on three families reads a fourth less surely.  Where the two contradict
+    each other the windows are mostly those false alarms; read as unsettled, 3 % of those windows are called,
+    a quarter of the windows are not settled, and the settled ones reach 0.89 (the statistics 0.78).
+
+    A window that cycles regularly is weighed by ``beside_cycle``, this rule's variant."""
     statistics, network = np.asarray(statistics, float), np.asarray(network, float)
     larger = np.fmax(statistics, network)
     unsettled = np.clip((statistics + network) / 2, LEANS_AT, STICTION_AT - UNSETTLED_MARGIN)
     return np.where(disagree(statistics, network), unsettled, larger)
-
-
-LOG_ODDS_CLIP = 1e-4
-"""Probabilities are read as log-odds within this of 0 and 1 (a network's 1e-9 is not 50 times surer than 1e-4)."""
-
-
-def log_odds(p: np.ndarray) -> np.ndarray:
-    p = np.clip(np.asarray(p, float), LOG_ODDS_CLIP, 1 - LOG_ODDS_CLIP)
-    return np.log(p / (1 - p))
-
-
-@dataclass(frozen=True)
-class Stack:
-    """A logistic model on the log-odds of two probabilities of one window: the general model's reading of its
-    statistics and the window network's reading of OP and PV (``fit_stack``)."""
-
-    statistics: float
-    network: float
-    bias: float
-
-    def probability(self, statistics: np.ndarray, network: np.ndarray) -> np.ndarray:
-        z = self.statistics * log_odds(statistics) + self.network * log_odds(network) + self.bias
-        return 1 / (1 + np.exp(-z))
-
-
-STACK_CALLS_AT = 0.65
-"""The stacked model's probability (fitted with the classes weighed equally) from which a window that does not cycle
-is called sticky: likelihood odds of 1.9 to 1, not 1, because a network judged on a family it was not trained on
-reads its windows surer than they are.  Held out (below, ``NETWORK_STACK``) it calls as few healthy valves' windows
-as the rule before it."""
-STACK_UNSETTLED_FROM = 0.3
-"""The stacked model's probability from which, up to ``STACK_CALLS_AT``, the window is not settled ("cannot tell"):
-as many windows as under the rule before it."""
-
-
-def fit_stack(
-    statistics: np.ndarray,
-    network: np.ndarray,
-    shows_fault: np.ndarray,
-    calls_at: float = STACK_CALLS_AT,
-    unsettled_from: float = STACK_UNSETTLED_FROM,
-) -> Stack:
-    """The logistic model of ``shows_fault`` on the two probabilities' log-odds, the classes weighed equally, then
-    tempered so that the verdict's thresholds read it: its ``calls_at`` becomes ``STICTION_AT`` and its
-    ``unsettled_from`` becomes ``LEANS_AT`` (one scale and one shift of its log-odds: the windows rank as the
-    fitted model ranks them).  The windows must be read by models that did not train on them (a network that
-    trained on a window reads it surer than it will read a plant's)."""
-    y = np.asarray(shows_fault, bool)
-    x = np.stack([log_odds(statistics), log_odds(network)], axis=1)
-    share = float(y.mean())
-    weights = np.where(y, 0.5 / share, 0.5 / (1 - share))
-    model = fit_logistic(x, ["stiction" if v else "other" for v in y], ("other", "stiction"), weights)
-    coef = (model.weights[:, 1] - model.weights[:, 0]) / model.scale
-    bias = float(model.bias[1] - model.bias[0] - coef @ model.mean)
-    k = (log_odds(LEANS_AT) - log_odds(STICTION_AT)) / (log_odds(unsettled_from) - log_odds(calls_at))
-    return Stack(float(k * coef[0]), float(k * coef[1]), float(k * (bias - log_odds(calls_at))))
-
-
-NETWORK_STACK = Stack(statistics=0.0611, network=0.2395, bias=-0.0276)
-"""The stiction probability of a window that does not cycle regularly, from the general model's reading of its
-statistics and the window network's (``fit_stack``, tempered: 0.5 calls it, 0.35 up to 0.5 cannot tell).  Fitted on
-the windows that do not cycle of ``stiction bench detect --windows`` at seeds 3031, 4711, 8080 and 6262 (1,611
-windows, 296 showing a fault), each family's windows read by a network and a general model trained without that
-family.  The network weighs four times the statistics: on those windows it ranks the faults above their
-look-alikes with an AUC of 0.80-0.94, the statistics 0.48-0.79.
-
-Chosen over the rule before it (``combined``: the larger of the two unless they contradict each other, then
-unsettled), fitted on three seeds and three families and judged on the fourth of each (what it was fitted on never
-judged), the regular cycles read as before: over the 16 held-out family and seed pairs the settled windows' balanced
-accuracy 0.873 against 0.864 (the worst pair 0.802 against 0.810), as many windows unsettled (25 % against 24 %),
-the windows that show a fault called 71 % against 57 %, the healthy ones left alone 90.4 % against 91.8 %.  The rule
-before unsettled most of the sticky windows the network found (it reads 0.9 where the statistics read 0.2).
-``STACK_CALLS_AT`` and ``STACK_UNSETTLED_FROM`` were chosen on the same pairs; judged on seed 7373 after
-(docs/benchmarks.md, "The window network stacked with the statistics")."""
 
 
 def beside_cycle(cycle: np.ndarray, network: np.ndarray) -> np.ndarray:
@@ -340,8 +270,8 @@ class Detector:
         level loop), raised to a stuck-valve test's where that test speaks.
         ``stuck`` [n, 2]: each window's ``Evidence.stuck`` (stuck-ramp share, stuck step's travel share).
         ``sequence`` [n]: the window network's probability (``detect.sequence``; nan where it read none), which
-        speaks beside the general model (``NETWORK_STACK``), or beside the cycle model for a window that cycles
-        regularly (``beside_cycle``), but not for the canonical loop, whose own model reads it."""
+        speaks beside the general model (``combined``), or beside the cycle model for a window that cycles regularly
+        (``beside_cycle``), but not for the canonical loop, whose own model reads it."""
         x = np.atleast_2d(x)
         which = self.route(x.shape[0], oscillating, canonical)
         p = np.empty(x.shape[0])
@@ -354,7 +284,7 @@ class Detector:
         if sequence is not None:
             sequence = np.broadcast_to(np.asarray(sequence, float), p.shape)
             read = np.isfinite(sequence)
-            p = np.where((which == 0) & read, NETWORK_STACK.probability(p, sequence), p)
+            p = np.where((which == 0) & read, combined(p, sequence), p)
             p = np.where((which == 1) & read, beside_cycle(p, sequence), p)
         if stuck is None:
             return p
@@ -457,8 +387,6 @@ def decide(
                 f"gives {seq[0]:.2f} (the window's statistics alone {alone[0]:.2f})")  # fmt: skip
         if disagree(alone, seq)[0]:
             read += ": the two readings contradict each other"
-            if not ev.oscillation.oscillating:  # NETWORK_STACK: the cycles' contradictions are not settled
-                read += ", and the verdict weighs the network's about four times the statistics'"
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)
         reason = f"stiction probability {p:.2f}" + (f"; {stuck}" if stuck else "") + (f"; {read}" if read else "")

@@ -295,7 +295,7 @@ def test_the_shipped_detector_is_the_one_this_code_trains(tmp_path):
         "`stiction train --detector --replace-shipped`"
 
 
-def test_a_cycle_model_and_the_network_that_contradict_each_other_combine_to_cannot_tell():
+def test_the_statistics_and_the_window_network_combine_to_the_larger_unless_they_contradict_each_other():
     from stiction.detect.verdict import LEANS_AT, STICTION_AT, combined, disagree
 
     stats = np.array([0.2, 0.6, 0.4, 0.1, 0.9, 0.3])
@@ -305,42 +305,6 @@ def test_a_cycle_model_and_the_network_that_contradict_each_other_combine_to_can
     assert disagree(stats, net).tolist() == [False, False, False, True, True, False]
     assert np.all((p[3:5] >= LEANS_AT) & (p[3:5] < STICTION_AT))  # contradicting: not settled either way
     assert p[5] == 0.3  # no network reading: the statistics'
-
-
-def test_the_stack_ranks_by_both_readings_the_network_weighing_more_and_never_settles_on_extreme_inputs_alone():
-    from stiction.detect.verdict import NETWORK_STACK, STICTION_AT
-
-    grid = np.linspace(0.01, 0.99, 25)
-    s, n = np.meshgrid(grid, grid, indexing="ij")
-    p = NETWORK_STACK.probability(s, n)
-    assert np.all(np.diff(p, axis=0) > 0) and np.all(np.diff(p, axis=1) > 0)  # more of either: more likely sticky
-    # the network's reading moves the probability more than the statistics' over the same span
-    assert np.ptp(NETWORK_STACK.probability(0.5, grid)) > 2 * np.ptp(NETWORK_STACK.probability(grid, 0.5))
-    assert NETWORK_STACK.probability(0.2, 0.98) >= STICTION_AT  # the network's fault, statistics that lean healthy
-    assert NETWORK_STACK.probability(0.95, 0.02) < STICTION_AT  # the statistics alone do not call it
-    # log-odds are clipped: a reading of 1e-12 is no surer than 1e-4
-    assert NETWORK_STACK.probability(0.5, 1e-12) == NETWORK_STACK.probability(0.5, 1e-4)
-
-
-def test_fit_stack_puts_its_call_and_its_cannot_tell_where_the_verdict_reads_them():
-    """Simulated readings whose log-odds are the truth plus noise, the network's three times as sure as the
-    statistics': the fitted stack weighs the network more, and the fitted model's ``calls_at`` and
-    ``unsettled_from`` land on ``STICTION_AT`` and ``LEANS_AT`` (the reference: the untempered fit, mapped by hand)."""
-    from stiction.detect.verdict import LEANS_AT, STICTION_AT, fit_stack, log_odds
-
-    rng = np.random.default_rng(5)
-    y = rng.random(4000) < 0.2
-    truth = np.where(y, 1.5, -1.5)
-    stats = 1 / (1 + np.exp(-(truth + rng.normal(0, 3.0, y.size))))
-    net = 1 / (1 + np.exp(-(truth + rng.normal(0, 1.0, y.size))))
-    raw = fit_stack(stats, net, y, calls_at=0.5, unsettled_from=LEANS_AT)  # untempered: thresholds as they are
-    assert raw.network > 2 * raw.statistics > 0
-    stack = fit_stack(stats, net, y, calls_at=0.65, unsettled_from=0.3)
-    raw_z = raw.statistics * log_odds(stats) + raw.network * log_odds(net) + raw.bias
-    p = stack.probability(stats, net)
-    np.testing.assert_array_equal(p >= STICTION_AT, raw_z >= log_odds(0.65))
-    settled_healthy = raw_z < log_odds(0.3)
-    np.testing.assert_array_equal(p < LEANS_AT, settled_healthy)
 
 
 def test_beside_a_cycle_the_network_raises_a_call_or_unsettles_a_healthy_reading_but_never_unsettles_a_call():
@@ -356,7 +320,7 @@ def test_beside_a_cycle_the_network_raises_a_call_or_unsettles_a_healthy_reading
 
 def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_canonical_loops(detector):
     from stiction.detect.features import NAMES
-    from stiction.detect.verdict import NETWORK_STACK, beside_cycle
+    from stiction.detect.verdict import beside_cycle, combined
 
     x = np.zeros((4, len(NAMES)))
     seq = np.array([0.99, 0.99, 0.99, np.nan])
@@ -364,7 +328,7 @@ def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_c
     base = detector.stiction_probability(x, None, osc, canon)
     with_net = detector.stiction_probability(x, None, osc, canon, seq)
     assert base[0] != base[1]  # the general and the cycle model read the same statistics differently
-    for k, rule in ((0, NETWORK_STACK.probability), (1, beside_cycle)):  # each beside its own statistics' model
+    for k, rule in ((0, combined), (1, beside_cycle)):  # each beside its own statistics' model
         assert with_net[k] == pytest.approx(float(rule(base[k : k + 1], seq[k : k + 1])[0]))
         assert with_net[k] != base[k]
     assert with_net[2] == base[2]  # the canonical loop's model speaks alone

@@ -1,8 +1,7 @@
 """The window network in the verdict: a valve fault hidden in a loop that does not cycle, which the window's
 statistics barely lean on, is found, and the same loop with a healthy valve is not called; where the statistics
-read the window as healthy and the network as sticky, the network weighs more and the report says both; and among
-regular cycles, where the network speaks beside the cycle model, a valve's deadband cycle the cycle model misses is
-found.
+read the window as healthy and the network as sticky, the report says the data do not settle it; and among regular
+cycles, where the network speaks beside the cycle model, a valve's deadband cycle the cycle model misses is found.
 
 The loops come from the independent simulator (``sim.two_parameter``: Choudhury's valve under SIMC-tuned PI, a
 slow wander on the load), which no model of the verdict is trained on; seed 9090, recorded 1,000 samples (the
@@ -54,21 +53,18 @@ def test_a_valve_fault_in_a_loop_that_does_not_cycle_is_found_and_its_healthy_tw
     assert twin.verdict != "stiction" and twin.stiction_probability < 0.2
 
 
-def test_a_backlash_the_statistics_read_healthy_and_the_network_as_a_fault_is_found_the_report_saying_both(quantifier):
-    """A backlash without slip (a valve fault: S > 0, J = 0) in a window that does not cycle: the network reads it as
-    a fault, the statistics lean healthy.  The verdict weighs the network more (``NETWORK_STACK``): it is found,
-    and the report gives both readings and says they contradict each other; the healthy twin is read healthy by
-    both, settled."""
-    from stiction.detect.verdict import LEANS_AT
-
+def test_where_the_statistics_read_healthy_and_the_network_sticky_the_report_cannot_tell(quantifier):
+    """A backlash without slip: the network reads it at 0.98, the statistics at 0.24.  Neither verdict is
+    settled: the report is not called sticky, and its warning says the data lean to stiction without settling it,
+    with both readings; the healthy twin is read healthy by both."""
     loop, sticky, healthy = _pair("flow", "backlash", 4)
     assert sticky.shows_fault and loop.j_pct == 0.0
     report = _report(quantifier, sticky, "backlash")
-    assert report.verdict == "stiction", report.warnings
+    assert report.verdict == "no_oscillation" and 0.35 <= report.stiction_probability < 0.5
     said = " ".join(report.warnings)
-    assert "contradict each other" in said and "window network" in said and "weighs" in said
+    assert "do not settle it" in said and "contradict each other" in said and "window network" in said
     twin = _report(quantifier, healthy, "healthy")
-    assert twin.verdict == "no_oscillation" and twin.stiction_probability < LEANS_AT
+    assert twin.verdict == "no_oscillation" and twin.stiction_probability < 0.2
 
 
 def test_the_network_reads_the_loop_not_the_records_length_or_units(quantifier):
