@@ -30,7 +30,7 @@ def test_window_is_always_the_tail_of_the_stream():
 def test_the_setpoint_is_kept_beside_the_window_and_costs_nothing_while_it_stands_still():
     w = RollingWindow(100, 1.0)
     w.update(0, 0.0, np.zeros(60), np.zeros(60), np.full(60, 50.0))
-    assert w._sp is None and np.array_equal(w.get_sp(), np.full(60, 50.0))  # one number, no ring yet
+    assert w._sp is None and np.array_equal(w.get_sp(), np.full(60, 50.0))  # one number, no ring
     w.update(60, 60.0, np.zeros(3), np.zeros(3), [50.0, 52.0, 52.0])  # the operator moves it
     w.update(63, 63.0, np.zeros(57), np.zeros(57), np.full(57, 52.0))
     sp = w.get_sp()
@@ -53,3 +53,38 @@ def test_the_valve_position_is_kept_beside_the_window_only_where_the_stream_has_
     assert w.get_mv() is None
     w.update(175, 175.0, np.zeros(100), np.zeros(100), mv=np.full(100, 3.0))
     assert np.array_equal(w.get_mv(), np.full(100, 3.0))
+
+
+def test_the_setpoint_is_the_tail_of_the_stream_whether_kept_as_steps_or_as_a_ring():
+    """Setpoints that step now and then, that move every sample (a cascade's inner loop), and batches that carry
+    none; the reference is the stream's tail, None while the window holds a sample that had no setpoint."""
+    from stiction.agent.window import SP_STEPS_KEPT
+
+    rng = np.random.default_rng(3)
+    for kind in ("steps", "moving", "steps then moving"):
+        size, total = 200, 3000
+        sp = np.repeat(rng.uniform(20, 80, 12), total // 12)  # a dozen steps
+        if kind != "steps":
+            moving = np.cumsum(rng.normal(0, 0.1, total)) + 50.0
+            sp = moving if kind == "moving" else np.r_[sp[: total // 2], moving[total // 2 :]]
+        has = np.ones(total, bool)
+        w = RollingWindow(size, 1.0)
+        seq = 0
+        while seq < total:
+            n = min(int(rng.integers(1, 300)) if rng.random() < 0.3 else int(rng.integers(1, 6)), total - seq)
+            part = sp[seq : seq + n]
+            given = rng.random() > 0.03
+            has[seq : seq + n] = given
+            w.update(seq, float(seq), np.zeros(n), np.zeros(n), (part.tolist() if rng.random() < 0.5 else part)
+                     if given else None)  # fmt: skip
+            seq += n
+            lo = max(0, seq - size)
+            got = w.get_sp()
+            if not has[lo:seq].all():
+                assert got is None
+            else:
+                np.testing.assert_array_equal(got, sp[lo:seq].astype(np.float32))
+            if kind == "steps":
+                assert w._sp is None and len(w._sp_steps or ()) <= SP_STEPS_KEPT  # a few numbers, never a ring
+        if kind != "steps":
+            assert w._sp is not None and w._sp_steps is None  # moving every sample: kept as a ring
