@@ -142,9 +142,9 @@ def _trained_sequence(model, records) -> np.ndarray:
     return sequence.record_probabilities(chunk_logits(model, x), readable)
 
 
-def _judged(rows, detector) -> dict:
+def _judged(rows, detector, windows: list | None = None) -> dict:
     """Each method's rates on ``rows`` (loop, record, evidence, blocked) by kind, ``detector`` and the shipped
-    window network for ours."""
+    window network for ours; each window's figures appended to ``windows`` where it is given."""
     x = np.nan_to_num(np.array([r[2].vector for r in rows]))
     stuck = np.array([r[2].stuck for r in rows])
     osc = np.array([r[2].oscillation.oscillating for r in rows])
@@ -154,6 +154,13 @@ def _judged(rows, detector) -> dict:
     truth = np.array([r[1].shows_fault for r in rows])
     calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]
     kinds = np.array([r[0].kind for r in rows])
+    if windows is not None:
+        windows += [
+            {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
+             "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]),
+             "p_network": float(seq[i])}
+            for i, r in enumerate(rows)
+        ]  # fmt: skip
     return {kind: _method_rows(calls, truth, osc, kinds == kind) for kind in sorted(set(kinds))}
 
 
@@ -168,8 +175,9 @@ def bench_detect(
     windows: bool = False,
 ) -> dict:
     """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
-    network's); ``windows``: add every held-out family window's figures (``--windows``); ``n_per_class``: judged
-    loops of each cause in each family; ``train_per_class``: the same for training;
+    network's); ``windows``: add every held-out family window's figures, the independent simulator's and the
+    measured windows' (their probabilities: ours, the statistics', the network's) (``--windows``);
+    ``n_per_class``: judged loops of each cause in each family; ``train_per_class``: the same for training;
     ``bands``: the scale of the judged sticky valves' bands (``sim.plant_families.BANDS``); ``samples``: the
     judged records' length (default the training windows', ``sim.plant_families.WINDOW_SAMPLES``: the same
     loops recorded longer, as exports and the agent's windows hold them).  The detectors
@@ -256,7 +264,10 @@ def bench_detect(
 
     # another simulator, another valve model, other tunings: judged by the detector trained on every family
     simulation_only = training.train(sim)
-    out["two_parameter"] = _judged(_two_parameter_set(n_per_class, seed, samples), simulation_only)
+    tp_windows: list | None = [] if windows else None
+    out["two_parameter"] = _judged(_two_parameter_set(n_per_class, seed, samples), simulation_only, tp_windows)
+    if windows:
+        out["two_parameter_windows"] = tp_windows
 
     measured_rows = [
         (tag, sticky, evidence(e.op, e.pv, e.ts_s, e.sp), _blocked(e.op, e.pv)) for tag, sticky, e in exports
@@ -281,6 +292,13 @@ def bench_detect(
         calls = [_calls(r[2], p_cv[i], r[3], p_cv_stat[i]) for i, r in enumerate(measured_rows)]
         calls_sim = np.array([_calls(r[2], p_sim[i], r[3], p_sim[i])["ours"] for i, r in enumerate(measured_rows)])
         readable = ~np.array([r[3] for r in measured_rows])
+        if windows:  # each measured window's figures, its tag held out
+            out["measured_windows"] = [
+                {"tag": tag, "sticky": bool(sticky[i]), "blocked": bool(measured_rows[i][3]),
+                 "oscillating": bool(osc_m[i]), "p": float(p_cv[i]), "p_statistics": float(p_cv_stat[i]),
+                 "p_network": float(seq_m[i])}
+                for i, tag in enumerate(tags)
+            ]  # fmt: skip
         out["measured"] = {
             "windows": len(measured_rows),
             "tags": len(set(tags)),

@@ -142,7 +142,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument(
         "--windows",
         action="store_true",
-        help="with --json, every held-out family window too: family, cause, label, each probability (for analysis)",
+        help="with --json, every window's figures too: the held-out families' (family, cause, label), the independent "
+        "simulator's (kind, cause, label) and the measured ones (tag, label), each with our probability, the "
+        "statistics' and the network's (for analysis)",
     )
     t.add_argument(
         "--bands",

@@ -7,8 +7,8 @@ from stiction.trainer.window_net import WindowNetSettings
 
 def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_published_tests(capsys, plant_dir):
     tiny = WindowNetSettings(seeds=1, n_per_cause=1, members=1, epochs=1)
-    fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2, window_net=tiny)
-    assert fig["window_net"]["windows"] > 0 and "windows" not in fig  # per-window figures only when asked
+    fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2, window_net=tiny, windows=True)
+    assert fig["window_net"]["windows"] > 0
     assert set(fig["families"]) == set(FAMILIES) and fig["bands"] == "plant"
     for row in fig["families"].values():
         for m in METHODS:
@@ -31,6 +31,14 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert set(fig["two_parameter"]) == {"flow", "level"}  # another simulator, held out from training
     for row in fig["two_parameter"].values():
         assert 0 <= row["show_fault"] <= row["n"] and all(0.0 <= row[k]["specificity"] <= 1.0 for k in METHODS)
+    # each window's figures (--windows): the family windows, the other simulator's and the measured ones, whose
+    # probabilities give back the rates above
+    assert len(fig["windows"]) == sum(r["n"] for r in fig["families"].values())
+    assert len(fig["two_parameter_windows"]) == sum(r["n"] for r in fig["two_parameter"].values())
+    measured = fig["measured_windows"]
+    assert len(measured) == m["windows"] and sum(w["sticky"] for w in measured) == m["sticky"]
+    called = [w["p"] >= 0.5 and not w["blocked"] for w in measured]
+    assert sum(c == w["sticky"] for c, w in zip(called, measured, strict=True)) / len(measured) == m["ours"]["accuracy"]
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
