@@ -40,8 +40,14 @@ def _steps_after(steps: list[tuple[int, float]], first: int, values: np.ndarray,
     last = kept[-1][1]
     moved = np.flatnonzero(values != np.r_[DTYPE(last), values[:-1]])
     kept += [(first + int(k), float(values[k])) for k in moved]
-    in_force = max((i for i, st in enumerate(kept) if st[0] <= start), default=0)
-    return kept[in_force:]
+    _drop_slid_out(kept, start)
+    return kept
+
+
+def _drop_slid_out(steps: list[tuple[int, float]], start: int) -> None:
+    """Drop, in place, the steps before ``start`` but the one in force there."""
+    while len(steps) > 1 and steps[1][0] <= start:
+        del steps[0]
 
 
 def _expand(steps: list[tuple[int, float]], start: int, count: int) -> np.ndarray:
@@ -114,11 +120,9 @@ class RollingWindow:
         if sp is None:
             self._sp_missing_until = seq + n
             return
-        steps = self._sp_steps
+        steps, start = self._sp_steps, seq + n - self.size  # start: the window's first sample after this batch
         if steps is not None and seq > steps[-1][0] and all(float(DTYPE(v)) == steps[-1][1] for v in sp):
-            start = seq + n - self.size  # the setpoint stands still (most messages): the steps slid out dropped
-            while len(steps) > 1 and steps[1][0] <= start:
-                del steps[0]
+            _drop_slid_out(steps, start)  # the setpoint stands still (most messages)
             return
         if self._sp is None and steps is None:
             const = float(sp[0]) if self._sp_const is None else self._sp_const
@@ -129,12 +133,11 @@ class RollingWindow:
         values = np.asarray(sp, float)[-self.size :].astype(DTYPE)
         first = seq + n - values.size
         if self._sp is None:
-            self._sp_steps = _steps_after(self._sp_steps, first, values, seq + n - self.size)
+            self._sp_steps = _steps_after(self._sp_steps, first, values, start)
             if len(self._sp_steps) <= SP_STEPS_KEPT:
                 return
             self._sp = np.empty(self.size, DTYPE)  # moves too often to keep as steps: a ring, as OP and PV
-            held = seq + n - self.size
-            self._sp[self._tail(held, self.size, self.size)] = _expand(self._sp_steps, held, self.size)
+            self._sp[self._tail(start, self.size, self.size)] = _expand(self._sp_steps, start, self.size)
             self._sp_steps = None
             return
         self._sp[self._tail(seq, n, values.size)] = values

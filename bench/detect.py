@@ -142,9 +142,9 @@ def _trained_sequence(model, records) -> np.ndarray:
     return sequence.record_probabilities(chunk_logits(model, x), readable)
 
 
-def _judged(rows, detector, windows: list | None = None) -> dict:
+def _judged(rows, detector) -> tuple[dict, list[dict]]:
     """Each method's rates on ``rows`` (loop, record, evidence, blocked) by kind, ``detector`` and the shipped
-    window network for ours; each window's figures appended to ``windows`` where it is given."""
+    window network for ours; and each window's figures."""
     x = np.nan_to_num(np.array([r[2].vector for r in rows]))
     stuck = np.array([r[2].stuck for r in rows])
     osc = np.array([r[2].oscillation.oscillating for r in rows])
@@ -154,14 +154,12 @@ def _judged(rows, detector, windows: list | None = None) -> dict:
     truth = np.array([r[1].shows_fault for r in rows])
     calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]
     kinds = np.array([r[0].kind for r in rows])
-    if windows is not None:
-        windows += [
-            {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
-             "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]),
-             "p_network": float(seq[i])}
-            for i, r in enumerate(rows)
-        ]  # fmt: skip
-    return {kind: _method_rows(calls, truth, osc, kinds == kind) for kind in sorted(set(kinds))}
+    windows = [
+        {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
+         "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]), "p_network": float(seq[i])}
+        for i, r in enumerate(rows)
+    ]  # fmt: skip
+    return {kind: _method_rows(calls, truth, osc, kinds == kind) for kind in sorted(set(kinds))}, windows
 
 
 def bench_detect(
@@ -264,8 +262,7 @@ def bench_detect(
 
     # another simulator, another valve model, other tunings: judged by the detector trained on every family
     simulation_only = training.train(sim)
-    tp_windows: list | None = [] if windows else None
-    out["two_parameter"] = _judged(_two_parameter_set(n_per_class, seed, samples), simulation_only, tp_windows)
+    out["two_parameter"], tp_windows = _judged(_two_parameter_set(n_per_class, seed, samples), simulation_only)
     if windows:
         out["two_parameter_windows"] = tp_windows
 
