@@ -39,12 +39,18 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert len(measured) == m["windows"] and sum(w["sticky"] for w in measured) == m["sticky"]
     called = [w["p"] >= 0.5 and not w["blocked"] for w in measured]
     assert sum(c == w["sticky"] for c, w in zip(called, measured, strict=True)) / len(measured) == m["ours"]["accuracy"]
+    # the settled figures count neither the windows it cannot tell (p 0.35-0.5) nor those it cannot read
+    settled = [(c, w["sticky"]) for c, w in zip(called, measured, strict=True)
+               if not w["blocked"] and not 0.35 <= w["p"] < 0.5]  # fmt: skip
+    assert m["ours_settled"]["n"] == len(settled) <= m["windows"] - m["bad_data"]
+    assert m["ours_settled"]["accuracy"] == sum(c == s for c, s in settled) / len(settled)
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
     assert "another simulator" in out
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
     assert "effect on PV over the noise" in out and "the label before" in out
+    assert "measured windows it settles" in out
 
 
 def test_a_folder_without_labelled_exports_is_named_not_judged_on_nothing(tmp_path):
