@@ -66,6 +66,18 @@ def _blocked(op, pv) -> bool:
     return bool(blocking(data_checks(op, pv)))
 
 
+def _settled(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, held: np.ndarray) -> tuple[dict, float]:
+    """(rates, share not settled) of the ``held`` windows: a window whose probability ``p`` leans without settling
+    (``LEANS_AT`` up to ``STICTION_AT``) or whose data are not read (``blocked``: bad data) is counted neither way,
+    as issue 22 defines the verdict's accuracy; its share is said beside the rates."""
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+
+    unsettled = ((p >= LEANS_AT) & (p < STICTION_AT)) | blocked
+    settled = held & ~unsettled
+    rates = _rates(p[settled] >= STICTION_AT, truth[settled]) | {"n": int(settled.sum())}
+    return rates, float(np.mean(unsettled[held]))
+
+
 def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
     """Sensitivity, specificity, balanced accuracy and accuracy of boolean calls against the truth."""
     sens = float(np.mean(called[truth])) if truth.any() else float("nan")
@@ -154,12 +166,17 @@ def _judged(rows, detector) -> tuple[dict, list[dict]]:
     truth = np.array([r[1].shows_fault for r in rows])
     calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]
     kinds = np.array([r[0].kind for r in rows])
+    blocked = np.array([r[3] for r in rows], bool)
+    by_kind = {}
+    for kind in sorted(set(kinds)):
+        by_kind[kind] = _method_rows(calls, truth, osc, kinds == kind)
+        by_kind[kind]["ours_settled"], by_kind[kind]["cannot_tell"] = _settled(p, truth, blocked, kinds == kind)
     windows = [
         {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
          "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]), "p_network": float(seq[i])}
         for i, r in enumerate(rows)
     ]  # fmt: skip
-    return {kind: _method_rows(calls, truth, osc, kinds == kind) for kind in sorted(set(kinds))}, windows
+    return by_kind, windows
 
 
 def bench_detect(
@@ -231,18 +248,12 @@ def bench_detect(
     # the windows the verdict does not settle: those it leans on, and those whose data it does not read (bad_data:
     # a compressed archive's, a dead sensor's); counted neither way in the settled figures, their share said
     blocked = np.array([r[3] for r in rows], bool)
-    unsettled = ((p >= LEANS_AT) & (p < STICTION_AT)) | blocked
     for f in FAMILIES:
         held = family == f
         row = _method_rows(calls, truth, osc, held)
-        settled = held & ~unsettled
-        row["ours_settled"] = _rates(p[settled] >= STICTION_AT, truth[settled])
-        row["cannot_tell"] = float(np.mean(unsettled[held]))
+        row["ours_settled"], row["cannot_tell"] = _settled(p, truth, blocked, held)
         # the same for the verdict without the window network
-        stat_unsettled = ((p_stat >= LEANS_AT) & (p_stat < STICTION_AT)) | blocked
-        stat_settled = held & ~stat_unsettled
-        row["statistics_settled"] = _rates(p_stat[stat_settled] >= STICTION_AT, truth[stat_settled])
-        row["statistics_cannot_tell"] = float(np.mean(stat_unsettled[held]))
+        row["statistics_settled"], row["statistics_cannot_tell"] = _settled(p_stat, truth, blocked, held)
         row["ours_stem_slipped"] = _rates(calls_ours[held], slipped[held])
         out["families"][f] = row
     out["by_cause"] = {
@@ -289,9 +300,6 @@ def bench_detect(
         calls = [_calls(r[2], p_cv[i], r[3], p_cv_stat[i]) for i, r in enumerate(measured_rows)]
         calls_sim = np.array([_calls(r[2], p_sim[i], r[3], p_sim[i])["ours"] for i, r in enumerate(measured_rows)])
         readable = ~np.array([r[3] for r in measured_rows])
-        # as the families' settled figures: a window not settled (p in the band that leans without settling) or not
-        # read (bad data) is counted neither way, its share said beside them
-        settled_m = readable & ~((p_cv >= LEANS_AT) & (p_cv < STICTION_AT))
         if windows:  # each measured window's figures, its tag held out
             out["measured_windows"] = [
                 {"tag": tag, "sticky": bool(sticky[i]), "blocked": bool(measured_rows[i][3]),
@@ -307,7 +315,7 @@ def bench_detect(
             **{m: _rates(np.array([c[m] for c in calls]), sticky) for m in METHODS},
             "ours_simulation_only": _rates(calls_sim, sticky),
             "ours_readable": _rates(np.array([c["ours"] for c in calls])[readable], sticky[readable]),
-            "ours_settled": _rates(p_cv[settled_m] >= STICTION_AT, sticky[settled_m]) | {"n": int(settled_m.sum())},
+            "ours_settled": _settled(p_cv, sticky, ~readable, np.ones(len(measured_rows), bool))[0],
             "near_threshold": int(np.sum(np.abs(p_cv - STICTION_AT) < 0.1)),
             "cannot_tell": float(np.mean((p_cv >= LEANS_AT) & (p_cv < STICTION_AT))),
         }
@@ -387,7 +395,9 @@ def print_table(fig: dict) -> None:
             cells = "".join(
                 f"{row[m]['sensitivity']:>7.2f}/{row[m]['specificity']:.2f} {row[m]['balanced']:.2f}" for m in METHODS
             )
-            o = row["ours_oscillating"]
+            o, st = row["ours_oscillating"], row["ours_settled"]
             print(f"{kind:10s}{row['n']:5d}{row['show_fault']:6d}{cells}   cycles {o['sensitivity']:.2f}/"
-                  f"{o['specificity']:.2f} ({o['show_fault']} of {o['n']})")  # fmt: skip
+                  f"{o['specificity']:.2f} ({o['show_fault']} of {o['n']}); ours settled "
+                  f"{st['sensitivity']:.2f}/{st['specificity']:.2f} {st['balanced']:.2f}, cannot tell "
+                  f"{100 * row['cannot_tell']:.0f} %")  # fmt: skip
     print(f"{fig['seconds']:.0f} s")

@@ -1,5 +1,7 @@
 """``stiction bench detect`` end to end on a small set: every figure it prints is there and is a share."""
 
+import pytest
+
 from stiction.bench.detect import METHODS, bench_detect, print_table
 from stiction.sim.plant_families import FAMILIES
 from stiction.trainer.window_net import WindowNetSettings
@@ -51,14 +53,21 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
     assert "effect on PV over the noise" in out and "the label before" in out
     assert "measured windows it settles" in out
+    # the independent simulator's settled figures, from its windows: the unsettled and the unread counted neither way
+    for kind, row in fig["two_parameter"].items():
+        mine = [w for w in fig["two_parameter_windows"] if w["kind"] == kind]
+        settled = [(w["p"] >= 0.5, w["shows_fault"]) for w in mine if not w["blocked"] and not 0.35 <= w["p"] < 0.5]
+        assert row["ours_settled"]["n"] == len(settled)
+        assert row["cannot_tell"] == pytest.approx(1 - len(settled) / len(mine))
+        if settled:
+            assert row["ours_settled"]["accuracy"] == sum(c == s for c, s in settled) / len(settled)
+    assert "ours settled" in out
 
 
 def test_a_folder_without_labelled_exports_is_named_not_judged_on_nothing(tmp_path):
     """Given the folder above the exports (the shared data's layout: loops.json beside csv/), the bench said
     nothing of the measured windows and printed no error."""
     import json
-
-    import pytest
 
     from stiction.bench.measured import labelled_exports
     from stiction.schemas.errors import InputError
