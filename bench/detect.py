@@ -170,8 +170,9 @@ def _judged(rows, detector) -> tuple[dict, list[dict]]:
     blocked = np.array([r[3] for r in rows], bool)
     by_kind = {}
     for kind in sorted(set(kinds)):
-        by_kind[kind] = _method_rows(calls, truth, osc, kinds == kind)
-        by_kind[kind]["ours_settled"], by_kind[kind]["cannot_tell"] = _settled(p, truth, blocked, kinds == kind)
+        held = kinds == kind
+        by_kind[kind] = _method_rows(calls, truth, osc, held)
+        by_kind[kind]["ours_settled"], by_kind[kind]["cannot_tell"] = _settled(p, truth, blocked, held)
     windows = [
         {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
          "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]), "p_network": float(seq[i])}
