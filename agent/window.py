@@ -6,9 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from stiction.agent.coded_ring import CodedRing
+
 DTYPE = np.float32
-"""Samples are held as float32 (7 significant digits, far finer than any transmitter): half the
-memory of 10,000 loops' windows; the pipeline computes in float64."""
+"""The setpoint and the valve position are held as float32 (7 significant digits, far finer than any transmitter);
+OP and PV as three-byte codes (``agent.coded_ring``: 3e-7 of the window's range or finer), read back as float32;
+the pipeline computes in float64."""
 
 
 REPEAT_ATOL = 1e-6
@@ -19,10 +22,15 @@ in two of nine ``stiction bench throughput`` runs, 2026-11-26, where a history r
 the windows)."""
 
 
-def _same(held: np.ndarray, new: np.ndarray) -> bool:
-    """Equal but for the history's rounding and float32's (two units in the last place)."""
+def _same(held: np.ndarray, new: np.ndarray, step: float) -> bool:
+    """Equal but for the history's rounding, float32's (two units in the last place) and the codes' (a ``step``)."""
     held, new = held.astype(float), new.astype(float)
-    return bool(np.all(np.abs(held - new) <= REPEAT_ATOL + 2.5e-7 * np.abs(new)))
+    return bool(np.all(np.abs(held - new) <= REPEAT_ATOL + step + 2.5e-7 * np.abs(new)))
+
+
+FEW_SAMPLES = 12
+"""Batches up to this long are coded a sample at a time (about 0.5 us a sample and signal); longer ones as arrays
+(13-15 us a batch: equal near 12 samples)."""
 
 
 SP_STEPS_KEPT = 32
@@ -74,8 +82,8 @@ class RollingWindow:
     def __init__(self, size: int, ts_s: float):
         self.size = size
         self.ts_s = ts_s
-        self._op = np.zeros(size, DTYPE)
-        self._pv = np.zeros(size, DTYPE)
+        self._op = CodedRing(size)
+        self._pv = CodedRing(size)
         self.count = 0  # samples held, at most size
         self.next_seq: int | None = None
         self.t_end_s: float | None = None
@@ -91,22 +99,38 @@ class RollingWindow:
         self._update_sp(seq, n, sp)
         if mv is not None or self._mv is not None:
             self._update_mv(seq, n, mv)
-        if n <= 4:  # a sample or a few a message (1 Hz streams): plain indexing, no array set-up
-            for k in range(n):
-                j = (seq + k) % self.size
-                self._op[j], self._pv[j] = op[k], pv[k]
-        else:  # the last ``size`` samples as one slice of the ring, or two where they wrap past its end
-            m = min(n, self.size)
-            op, pv = op[n - m :], pv[n - m :]
-            j = (seq + n - m) % self.size
-            first = min(m, self.size - j)
-            self._op[j : j + first], self._pv[j : j + first] = op[:first], pv[:first]
-            if first < m:
-                self._op[: m - first], self._pv[: m - first] = op[first:], pv[first:]
+        if n <= FEW_SAMPLES:  # a sample or a few a message: coded in Python, no array set up
+            j = seq % self.size
+            first = min(n, self.size - j)  # up to the ring's end, the rest from its start
+            for ring, x in ((self._op, op), (self._pv, pv)):
+                x = [float(v) for v in x]
+                ring.put(j, x[:first])
+                if first < n:
+                    ring.put(0, x[first:])
+            self._advance(seq, n, t0_s)
+            return self
+        # the last ``size`` samples as one slice of the ring, or two where they wrap past its end
+        m = min(n, self.size)
+        op, pv = np.asarray(op, float)[n - m :], np.asarray(pv, float)[n - m :]
+        j = (seq + n - m) % self.size
+        first = min(m, self.size - j)
+        self._op.write(slice(j, j + first), op[:first])
+        self._pv.write(slice(j, j + first), pv[:first])
+        if first < m:
+            self._op.write(slice(0, m - first), op[first:])
+            self._pv.write(slice(0, m - first), pv[first:])
+        self._advance(seq, n, t0_s)
+        return self
+
+    def _advance(self, seq: int, n: int, t0_s: float) -> None:
+        """Count the ``n`` samples from ``seq`` on as held, and narrow the codes' grids each time the ring turns
+        over (an outlier slid out of the window gives back its resolution)."""
         self.count = min(self.size, self.count + n)
+        if self.count == self.size and (seq + n) // self.size > seq // self.size:
+            self._op.narrow()
+            self._pv.narrow()
         self.next_seq = seq + n
         self.t_end_s = t0_s + (n - 1) * self.ts_s
-        return self
 
     def _tail(self, seq: int, n: int, m: int) -> np.ndarray:
         """Ring positions of the last ``m`` of the ``n`` samples that start at ``seq``."""
@@ -174,15 +198,15 @@ class RollingWindow:
         if self.next_seq is None or seq < self.next_seq - self.count or seq + n > self.next_seq:
             return False
         idx = (seq + np.arange(n)) % self.size
-        op, pv = np.asarray(op, DTYPE), np.asarray(pv, DTYPE)  # compared as they were stored
-        return bool(_same(self._op[idx], op) and _same(self._pv[idx], pv))
+        op, pv = np.asarray(op, DTYPE), np.asarray(pv, DTYPE)  # compared as they were sent
+        return _same(self._op.read(idx), op, self._op.step) and _same(self._pv.read(idx), pv, self._pv.step)
 
     def get(self) -> tuple[np.ndarray, np.ndarray]:
         """OP and PV of the samples held, oldest first."""
         if self.next_seq is None:
             return np.empty(0), np.empty(0)
-        idx = self._held()
-        return self._op[idx], self._pv[idx]
+        start = (self.next_seq - self.count) % self.size
+        return self._op.read_run(start, self.count), self._pv.read_run(start, self.count)
 
     def snapshot(self) -> dict:
         op, pv = self.get()

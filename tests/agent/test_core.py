@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from stiction.agent.coded_ring import CODES_FITTED
 from stiction.agent.core import AgentCore, CoreSettings
 
 KEY = "stiction/demo/loop/L1/samples"
@@ -144,7 +145,7 @@ def test_a_short_gap_is_interpolated_and_counted_a_long_one_restarts_the_window(
     core.ingest(KEY, _payload(54, n=10, op=[100.0] * 10), JSON, 0.0)  # seq 50..53 missing
     op, _ = core.loops["L1"].window.get()
     assert core.loops["L1"].window.count == 64 and not core.rejected
-    np.testing.assert_allclose(op[49:55], [49.0, 59.2, 69.4, 79.6, 89.8, 100.0])
+    np.testing.assert_allclose(op[49:55], [49.0, 59.2, 69.4, 79.6, 89.8, 100.0], atol=100 / CODES_FITTED)
     assert (core.gaps_filled, core.samples_filled) == (1, 4)
     assert core.loops["L1"].interpolated() == 4
     core.ingest(KEY, _payload(64, n=40), JSON, 0.0)  # the gap stays inside the 100-sample window
@@ -394,7 +395,7 @@ def test_live_samples_a_publishers_history_brought_first_are_repeats_and_a_batch
     core.ingest(key, _payload(88, n=7, op=list(exact[88:95])), JSON, 1.2)  # 88..91 held, 92..94 new
     core.ingest(key, _payload(95, n=5, op=list(exact[95:100])), JSON, 1.3)
     op, _ = core.loops["L1"].window.get()
-    np.testing.assert_allclose(op, exact, atol=1e-5)
+    np.testing.assert_allclose(op, exact, atol=(exact.max() - exact.min()) / CODES_FITTED)  # the codes' step
     assert dict(core.rejected) == {"duplicate": 1} and core.samples == 100
     core.ingest(key, _payload(97, n=5, op=[0.0] * 5), JSON, 1.4)  # other values for held samples: refused
     assert core.rejected["out_of_order"] == 1 and core.samples == 100

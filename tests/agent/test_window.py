@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from stiction.agent.coded_ring import fitted_step
 from stiction.agent.window import RollingWindow
 
 
@@ -19,9 +20,10 @@ def test_window_is_always_the_tail_of_the_stream():
             w.update(seq, float(seq), part.tolist(), (-part).tolist())
         seq += part.size
         op, pv = w.get()
-        expected = stream[max(0, seq - 300) : seq].astype(np.float32)  # held as float32
-        np.testing.assert_array_equal(op, expected)
-        np.testing.assert_array_equal(pv, -expected)
+        expected = stream[max(0, seq - 300) : seq]
+        around = stream[max(0, seq - 900) : seq]  # the grids' samples: this window, the one before, the overwritten
+        err = fitted_step(around.min(), around.max()) + 1e-6 * np.abs(expected)  # the codes' step, float32's
+        assert np.all(np.abs(op - expected) <= err) and np.all(np.abs(pv + expected) <= err)
         assert w.t_end_s == seq - 1 and w.next_seq == seq
     assert w.snapshot()["count"] == 300
     assert w.holds(seq - 10, stream[seq - 10 : seq], -stream[seq - 10 : seq])  # a repeat of float64 samples is seen

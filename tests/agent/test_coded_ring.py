@@ -1,0 +1,87 @@
+"""The coded ring against the float64 samples it was given, on streams of every scale, with an outlier hidden
+in one."""
+
+import numpy as np
+import pytest
+
+from stiction.agent.coded_ring import CODES_FITTED, CodedRing, fitted_step
+
+
+def _stream(rng, offset: float, span: float, n: int) -> np.ndarray:
+    """A loop's signal: a level that wanders, a cycle, noise; ``span`` its size, ``offset`` where it sits."""
+    t = np.arange(n)
+    wander = 0.1 * np.cumsum(rng.normal(size=n)) / np.sqrt(n)
+    return offset + span * (0.3 * np.sin(t / 37.0) + wander + 1e-3 * rng.normal(size=n))
+
+
+def _feed(ring: CodedRing, stream: np.ndarray, size: int, rng):
+    """Write ``stream`` in messages of random length at the ring's positions; yield (samples so far, positions of
+    the window oldest first)."""
+    seq = 0
+    while seq < stream.size:
+        n = int(rng.integers(1, 40)) if rng.random() < 0.9 else int(rng.integers(40, 2 * size))
+        part = stream[seq : seq + n][-size:]
+        first = seq + min(n, stream.size - seq) - part.size
+        for k, v in enumerate(part):
+            ring.put((first + k) % size, [float(v)]) if rng.random() < 0.5 else ring.write(
+                slice((first + k) % size, (first + k) % size + 1), np.array([v])
+            )
+        seq += min(n, stream.size - seq)
+        if seq >= size and (seq // size) > ((seq - n) // size):
+            ring.narrow()
+        count = min(seq, size)
+        yield seq, (seq - count + np.arange(count)) % size
+
+
+@pytest.mark.parametrize(("offset", "span"), [(50.0, 20.0), (0.0, 1e-3), (1013.25, 0.05), (-4e5, 3e4), (7.0, 1e6)])
+def test_every_sample_reads_back_within_a_step_of_the_grid_of_its_windows(offset, span):
+    rng = np.random.default_rng(int(abs(offset)) + 7)
+    size = 200
+    stream = _stream(rng, offset, span, 3000)
+    ring = CodedRing(size)
+    for seq, at in _feed(ring, stream, size, rng):
+        expected = stream[seq - at.size : seq]
+        around = stream[max(0, seq - 3 * size) : seq]
+        bound = fitted_step(around.min(), around.max())
+        finest = 2**-30 * np.abs(around).max()  # a signal that barely moves: far below float32's resolution
+        assert bound <= 2 * max((around.max() - around.min()) / (2 * CODES_FITTED), finest)
+        held = ring.base + ring.codes(at) * ring.step  # the codes' values, before float32 rounds them on the way out
+        assert np.all(np.abs(held - expected) <= bound)
+        assert np.all(np.abs(ring.read(at) - held) <= 1e-7 * np.abs(held))
+
+
+def test_an_outlier_coarsens_the_grid_and_its_resolution_comes_back_once_it_slid_out():
+    """Hidden effect: one spike of a million in a signal of a few %."""
+    rng = np.random.default_rng(3)
+    size = 200
+    stream = _stream(rng, 40.0, 5.0, 2000)
+    stream[700] = 1e6
+    ring = CodedRing(size)
+    steps = {seq: ring.step for seq, _ in _feed(ring, stream, size, rng)}
+    coarse = max(s for seq, s in steps.items() if 700 < seq <= 900)
+    late = [s for seq, s in steps.items() if seq > 1100]
+    assert coarse >= 1e6 / (2 * CODES_FITTED) and max(late) <= fitted_step(stream[900:].min(), stream[900:].max())
+    at = (2000 - size + np.arange(size)) % size
+    assert np.all(np.abs(ring.read(at) - stream[-size:]) <= max(late) + 1e-6 * np.abs(stream[-size:]))  # float32's
+
+
+def test_zero_reads_back_zero_and_a_repeated_value_one_value():
+    ring = CodedRing(100)
+    ring.write(slice(0, 50), np.r_[np.zeros(25), np.linspace(3.0, 78.0, 25)])
+    ring.write(slice(50, 100), np.full(50, 37.123456))
+    got = ring.read(np.arange(100))
+    assert np.all(got[:25] == 0.0) and np.unique(got[50:]).size == 1
+    assert abs(got[50] - 37.123456) <= ring.step
+
+
+def test_a_sample_written_on_a_grid_that_stays_reads_back_within_half_its_step():
+    rng = np.random.default_rng(5)
+    ring = CodedRing(500)
+    ring.write(slice(0, 2), np.array([10.0, 30.0]))  # the grid, fitted to the range the rest stays inside
+    values = rng.uniform(10.0, 30.0, 498)
+    for k in range(0, 250, 5):
+        ring.put(2 + k, values[k : k + 5].tolist())
+    ring.write(slice(252, 500), values[250:])
+    held = ring.base + ring.codes(np.arange(2, 500)) * ring.step
+    assert ring.step == fitted_step(10.0, 30.0)
+    assert np.all(np.abs(held - values) <= 0.5 * ring.step)
