@@ -10,8 +10,8 @@ from stiction.agent.coded_ring import CodedRing
 
 DTYPE = np.float32
 """The setpoint and the valve position are held as float32 (7 significant digits, far finer than any transmitter);
-OP and PV as three-byte codes (``agent.coded_ring``: 3e-7 of the window's range or finer), read back as float32;
-the pipeline computes in float64."""
+OP and PV as three-byte codes (``agent.coded_ring``: within 2.4e-7 of the window's range), read back as float64 as
+the pipeline computes, without float32's rounding on top (``agent.coded_ring`` says what that changed)."""
 
 
 REPEAT_ATOL = 1e-6
