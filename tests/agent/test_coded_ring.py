@@ -43,11 +43,9 @@ def test_every_sample_reads_back_within_a_step_of_the_grid_of_its_windows(offset
         expected = stream[seq - at.size : seq]
         around = stream[max(0, seq - 3 * size) : seq]
         bound = fitted_step(around.min(), around.max())
-        finest = 2**-30 * np.abs(around).max()  # a signal that barely moves: far below float32's resolution
+        finest = 2**-30 * np.abs(around).max()  # a signal that barely moves: far below float32's resolution (2^-24)
         assert bound <= 2 * max((around.max() - around.min()) / (2 * CODES_FITTED), finest)
-        held = ring.base + ring.codes(at) * ring.step  # the codes' values, before float32 rounds them on the way out
-        assert np.all(np.abs(held - expected) <= bound)
-        assert np.all(np.abs(ring.read(at) - held) <= 1e-7 * np.abs(held))
+        assert np.all(np.abs(ring.read(at) - expected) <= bound)
 
 
 def test_an_outlier_coarsens_the_grid_and_its_resolution_comes_back_once_it_slid_out():
@@ -62,7 +60,7 @@ def test_an_outlier_coarsens_the_grid_and_its_resolution_comes_back_once_it_slid
     late = [s for seq, s in steps.items() if seq > 1100]
     assert coarse >= 1e6 / (2 * CODES_FITTED) and max(late) <= fitted_step(stream[900:].min(), stream[900:].max())
     at = (2000 - size + np.arange(size)) % size
-    assert np.all(np.abs(ring.read(at) - stream[-size:]) <= max(late) + 1e-6 * np.abs(stream[-size:]))  # float32's
+    assert np.all(np.abs(ring.read(at) - stream[-size:]) <= max(late))
 
 
 def test_zero_reads_back_zero_and_a_repeated_value_one_value():
