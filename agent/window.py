@@ -103,8 +103,8 @@ class RollingWindow:
             j = seq % self.size
             first = min(n, self.size - j)  # up to the ring's end, the rest from its start
             for ring, x in ((self._op, op), (self._pv, pv)):
-                x = [float(v) for v in x]
-                ring.put(j, x[:first])
+                x = x if isinstance(x, list) else [float(v) for v in x]  # a decoded message's lists as they are
+                ring.put(j, x[:first] if first < n else x)
                 if first < n:
                     ring.put(0, x[first:])
             self._advance(seq, n, t0_s)
