@@ -4,7 +4,8 @@ float32's memory: OP and PV of 20,000 loops of 1,000 samples are 120 MB instead 
 The grid follows the samples the ring holds, whatever their unit (the message schema bounds none).  ``step`` is a
 power of two, at most 1/4,194,303 of the range of the samples it was fitted to (centred, half the codes in
 reserve), and the base a multiple of it.  A sample is rounded to odd on it (``_round_odd``): read back within a
-step, 2.4e-7 of that range, and as float64, so with no float32 rounding on top.
+step, 2.4e-7 of that range (``NARROW_GAIN`` says when the window's own range is narrower), and as float64, so with
+no float32 rounding on top.
 
 - A sample past the grid's reach widens it (the step doubled until every code of the ring and the new samples
   fit, the base moved to their centre) and the codes held are coded again on the coarser grid.  Rounded to odd,
@@ -37,8 +38,9 @@ room to double before the next refit."""
 NARROW_GAIN = 256
 """A grid narrows only where one this many times finer reaches the samples held: an outlier slid out of the window.
 A narrowing splits a value repeated across it into two codes (those before it rounded on the coarser grid), which
-the data checks read as a PV that moved (a frozen or stepped PV not told, 3 of 1,680 simulated windows when every
-halving narrowed); kept for the case it is there for."""
+the data checks would read as a PV that moved (a frozen or a stepped PV), so it is kept for the case it is there
+for.  The price: a window whose range shrank by less than this since its grid was fitted is held at up to this many
+times 2.4e-7 of its own range (6e-5; float32 held a range small beside its value no finer)."""
 FINEST_RELATIVE = 2.0**-40
 """The finest step relative to the grid's centre: a constant signal's first grid, far below float32's resolution
 (2^-24), and keeps ``base + code * step`` exact in float64."""
