@@ -49,7 +49,7 @@ FINEST_RELATIVE = 2.0**-40
 def fitted_step(lo: float, hi: float) -> float:
     """The smallest power of two for which the samples in [lo, hi], about their centre, take at most
     ``CODES_FITTED`` codes either side; never finer than ``FINEST_RELATIVE`` of their magnitude."""
-    centre, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    centre, half = 0.5 * lo + 0.5 * hi, 0.5 * hi - 0.5 * lo  # halves first: no overflow at float64's ends
     finest = FINEST_RELATIVE * max(abs(centre), abs(lo), abs(hi), 2.0**-100)
     return 2.0 ** math.ceil(math.log2(max(half / CODES_FITTED, finest)))
 
@@ -119,9 +119,11 @@ class CodedRing:
             base, parity, codes = self.base, (self.base / step) % 2 == 1, []
             for v in values:
                 c = (v - base) / step
+                if not -CODE_REACH <= c <= CODE_REACH:
+                    break  # past the grid's reach: the grid widens (``write``)
                 f = math.floor(c)
                 codes.append(f if c == f or (f & 1) != parity else f + 1)
-            if min(codes) >= -CODE_REACH and max(codes) <= CODE_REACH:
+            else:
                 self.buf[CODE_BYTES * at : CODE_BYTES * (at + len(codes))] = b"".join(
                     c.to_bytes(CODE_BYTES, "little", signed=True) for c in codes
                 )
@@ -135,13 +137,14 @@ class CodedRing:
         if self.step == 0.0:  # the first samples: a grid about them
             lo, hi = float(values.min()), float(values.max())
             self.step = fitted_step(lo, hi)
-            self.base = round(0.5 * (lo + hi) / self.step) * self.step
-        c = (values - self.base) / self.step
+            self.base = round((0.5 * lo + 0.5 * hi) / self.step) * self.step
+        with np.errstate(over="ignore"):  # a value at float64's end beyond an old grid: inf, past its reach
+            c = (values - self.base) / self.step
         if c.max() > CODE_REACH or c.min() < -CODE_REACH:
             held = self.codes()
             lo = min(float(values.min()), self.base + int(held.min()) * self.step)
             hi = max(float(values.max()), self.base + int(held.max()) * self.step)
-            self._regrid(held, max(fitted_step(lo, hi), self.step), 0.5 * (lo + hi))
+            self._regrid(held, max(fitted_step(lo, hi), self.step), 0.5 * lo + 0.5 * hi)
             c = (values - self.base) / self.step
         start, stop, _ = at.indices(self.size)
         self.buf[CODE_BYTES * start : CODE_BYTES * stop] = _encode(_round_odd(c, self._base_odd()))
@@ -155,7 +158,7 @@ class CodedRing:
         lo, hi = self.base + int(held.min()) * self.step, self.base + int(held.max()) * self.step
         step = fitted_step(lo, hi)
         if step * NARROW_GAIN <= self.step:
-            self._regrid(held, step, 0.5 * (lo + hi))
+            self._regrid(held, step, 0.5 * lo + 0.5 * hi)
 
     def _regrid(self, held: np.ndarray, step: float, centre: float) -> None:
         """Code the ring's ``held`` codes again on the grid of ``step`` whose base is the multiple of it nearest

@@ -108,3 +108,15 @@ def test_a_value_repeated_across_the_grids_widenings_keeps_one_code():
                 ring.put(0, part[first:].tolist())
             seq += part.size
         assert np.unique(ring.read(np.arange(size))).size == 3
+
+
+@pytest.mark.parametrize("values", [[1e308, -1e308, 5.0], [-1.7e308, 1.7e308], [1e300, 2.0, 3.0], [3.5e-44, 0.0]])
+def test_values_at_float64s_ends_are_held_within_a_step_and_raise_nothing(values):
+    """A message in wrong units must not stop the agent: the grid reaches any finite value."""
+    for how in ("put", "write"):
+        ring = CodedRing(10)
+        ring.write(slice(0, 1), np.array([values[-1]])) if how == "put" else None
+        for k, v in enumerate(values):
+            ring.put(1 + k, [v]) if how == "put" else ring.write(slice(1 + k, 2 + k), np.array([v]))
+        got = ring.read(np.arange(1, 1 + len(values)))
+        assert np.all(np.isfinite(got)) and np.all(np.abs(got - np.array(values)) <= ring.step)
