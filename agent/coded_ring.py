@@ -32,6 +32,9 @@ import numpy as np
 CODE_BYTES = 3
 CODE_REACH = 2**23 - 1
 """The codes' reach either side of the base (24-bit signed)."""
+FEW_SAMPLES = 12
+"""Runs up to this long are coded a sample at a time in Python (about 0.5 us a sample); longer ones as arrays
+(13-15 us a run: equal near 12 samples)."""
 CODES_FITTED = 2**22 - 1
 """A grid is fitted so that the samples it was fitted to take at most this many codes either side of its centre:
 room to double before the next refit."""
@@ -79,8 +82,8 @@ def _encode(codes: np.ndarray) -> bytes:
 
 
 class CodedRing:
-    """``size`` samples as 24-bit codes; ``put`` writes a few from a ring position, ``write`` a slice of positions,
-    ``read`` any positions (an index array) and ``read_run`` a run of them, as float64."""
+    """``size`` samples as 24-bit codes; ``write_run`` writes a run of them from a ring position (``put`` a few,
+    ``write`` a slice of positions), ``read`` any positions (an index array) and ``read_run`` a run, as float64."""
 
     __slots__ = ("size", "buf", "base", "step")
 
@@ -111,12 +114,28 @@ class CodedRing:
             codes = np.concatenate((codes, self.codes(slice(0, count - first))))
         return self.base + codes * self.step
 
+    def write_run(self, start: int, values) -> None:
+        """Write ``values`` (a list or an array, at most ``size`` of them) from ring position ``start`` on, wrapping
+        past the ring's end: a few (``FEW_SAMPLES``) coded in Python, more as arrays.  ``read_run``'s inverse."""
+        n = len(values)
+        first = min(n, self.size - start)
+        if n <= FEW_SAMPLES:
+            values = values if isinstance(values, list) else [float(v) for v in values]  # a decoded message's lists
+            self.put(start, values[:first] if first < n else values)
+            if first < n:
+                self.put(0, values[first:])
+            return
+        values = np.asarray(values, float)
+        self.write(slice(start, start + first), values[:first])
+        if first < n:
+            self.write(slice(0, n - first), values[first:])
+
     def put(self, at: int, values) -> None:
         """Write a few samples (a sequence of floats) from ring position ``at`` on, none past the ring's end: a
         stream of a few samples a message, coded in Python (``_round_odd``, one number at a time), no array set up."""
         step = self.step
         if step:
-            base, parity, codes = self.base, (self.base / step) % 2 == 1, []
+            base, parity, codes = self.base, self._base_odd(), []
             for v in values:
                 c = (v - base) / step
                 if not -CODE_REACH <= c <= CODE_REACH:

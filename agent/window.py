@@ -28,11 +28,6 @@ def _same(held: np.ndarray, new: np.ndarray, step: float) -> bool:
     return bool(np.all(np.abs(held - new) <= REPEAT_ATOL + step + 2.5e-7 * np.abs(new)))
 
 
-FEW_SAMPLES = 12
-"""Batches up to this long are coded a sample at a time (about 0.5 us a sample and signal); longer ones as arrays
-(13-15 us a batch: equal near 12 samples)."""
-
-
 SP_STEPS_KEPT = 32
 """A setpoint is kept as its steps (a few bytes each) while the window holds at most this many; one that moves more
 often (a cascade's inner loop, whose setpoint is the outer controller's output) is kept as a ring of samples as
@@ -99,38 +94,17 @@ class RollingWindow:
         self._update_sp(seq, n, sp)
         if mv is not None or self._mv is not None:
             self._update_mv(seq, n, mv)
-        if n <= FEW_SAMPLES:  # a sample or a few a message: coded in Python, no array set up
-            j = seq % self.size
-            first = min(n, self.size - j)  # up to the ring's end, the rest from its start
-            for ring, x in ((self._op, op), (self._pv, pv)):
-                x = x if isinstance(x, list) else [float(v) for v in x]  # a decoded message's lists as they are
-                ring.put(j, x[:first] if first < n else x)
-                if first < n:
-                    ring.put(0, x[first:])
-            self._advance(seq, n, t0_s)
-            return self
-        # the last ``size`` samples as one slice of the ring, or two where they wrap past its end
-        m = min(n, self.size)
-        op, pv = np.asarray(op, float)[n - m :], np.asarray(pv, float)[n - m :]
+        m = min(n, self.size)  # the last ``size`` samples, from their place in the ring on
         j = (seq + n - m) % self.size
-        first = min(m, self.size - j)
-        self._op.write(slice(j, j + first), op[:first])
-        self._pv.write(slice(j, j + first), pv[:first])
-        if first < m:
-            self._op.write(slice(0, m - first), op[first:])
-            self._pv.write(slice(0, m - first), pv[first:])
-        self._advance(seq, n, t0_s)
-        return self
-
-    def _advance(self, seq: int, n: int, t0_s: float) -> None:
-        """Count the ``n`` samples from ``seq`` on as held, and narrow the codes' grids each time the ring turns
-        over (an outlier slid out of the window gives back its resolution)."""
+        self._op.write_run(j, op[n - m :] if m < n else op)
+        self._pv.write_run(j, pv[n - m :] if m < n else pv)
         self.count = min(self.size, self.count + n)
         if self.count == self.size and (seq + n) // self.size > seq // self.size:
-            self._op.narrow()
+            self._op.narrow()  # the ring turned over: an outlier slid out of the window gives back its resolution
             self._pv.narrow()
         self.next_seq = seq + n
         self.t_end_s = t0_s + (n - 1) * self.ts_s
+        return self
 
     def _tail(self, seq: int, n: int, m: int) -> np.ndarray:
         """Ring positions of the last ``m`` of the ``n`` samples that start at ``seq``."""

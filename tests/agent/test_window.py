@@ -90,3 +90,15 @@ def test_the_setpoint_is_the_tail_of_the_stream_whether_kept_as_steps_or_as_a_ri
                 assert w._sp is None and len(w._sp_steps or ()) <= SP_STEPS_KEPT  # a few numbers, never a ring
         if kind != "steps":
             assert w._sp is not None and w._sp_steps is None  # moving every sample: kept as a ring
+
+
+def test_a_ring_shorter_than_a_message_keeps_the_messages_tail():
+    """Hidden effect: a batch of a few samples longer than the whole window (a window of 5, messages of 8)."""
+    w = RollingWindow(5, 1.0)
+    stream = np.arange(40.0) * 1.5
+    for seq in range(0, 40, 8):
+        w.update(seq, float(seq), stream[seq : seq + 8].tolist(), (-stream[seq : seq + 8]).tolist())
+        op, pv = w.get()
+        np.testing.assert_allclose(op, stream[seq + 3 : seq + 8], atol=1e-9)
+        np.testing.assert_allclose(pv, -stream[seq + 3 : seq + 8], atol=1e-9)
+    assert len(w._op.buf) == 3 * 5  # the ring never grows
