@@ -107,7 +107,8 @@ def load_window_net(models_dir: Path | None = None) -> Predictor | None:
 NET_BATCH_CHUNKS = 32
 """Chunks run through the window network at a time.  onnxruntime keeps the memory of its largest run for the next
 (its arena): in a process alone, the agent's batch of 200 windows in one run kept 44 MB more than runs of 32 chunks
-(9 MB), at the same cost a chunk (0.33-0.43 ms here).  In an agent of 20,000 plant-like loops the peak's spread
+(9 MB), at the same cost a chunk (0.33-0.43 ms here then; 0.24 ms since the network is exported with 2-D
+convolutions, ``trainer.nets.WindowEnsemble2d``).  In an agent of 20,000 plant-like loops the peak's spread
 between runs is as large as that (docs/scaling.md, "Every goal again")."""
 
 

@@ -27,7 +27,7 @@ from stiction.detect import sequence
 from stiction.schemas.model_card import ModelCard, TensorSpec
 from stiction.sim.plant_families import FAMILIES, family_loops, simulate_families, stable
 from stiction.trainer.export import export
-from stiction.trainer.nets import WindowEnsemble, WindowNet
+from stiction.trainer.nets import WindowEnsemble, WindowEnsemble2d, WindowNet
 
 log = logging.getLogger(__name__)
 
@@ -129,8 +129,7 @@ def write(model: WindowEnsemble, models_dir: Path, settings: WindowNetSettings, 
     models_dir = Path(models_dir)
     models_dir.mkdir(parents=True, exist_ok=True)
     path = models_dir / f"{NAME}.onnx"
-    example = torch.zeros(2, len(sequence.CHANNELS), sequence.CHUNK_SAMPLES)
-    sha = export(model, 0, path, "chunks", ["logit"], example=example, dynamic_axes={0: "batch", 2: "samples"})
+    sha = _export(model, path)
     card = ModelCard(
         name=NAME,
         version=MODEL_VERSION,
@@ -164,6 +163,44 @@ def write(model: WindowEnsemble, models_dir: Path, settings: WindowNetSettings, 
         created=datetime.now(UTC).isoformat(timespec="seconds"),
     )
     (models_dir / f"{NAME}.card.json").write_text(card.model_dump_json(indent=2) + "\n")
+    return card
+
+
+def _export(model: WindowEnsemble, path: Path) -> str:
+    """``model`` to ONNX in the form the runtime runs fastest (``trainer.nets.WindowEnsemble2d``); its sha256."""
+    example = torch.zeros(2, len(sequence.CHANNELS), sequence.CHUNK_SAMPLES)
+    dynamic = {0: "batch", 2: "samples"}
+    return export(WindowEnsemble2d(model), 0, path, "chunks", ["logit"], example=example, dynamic_axes=dynamic)
+
+
+def read_onnx(path: Path) -> WindowEnsemble:
+    """The ensemble an ONNX file of this network holds, its weights read back from the file's initializers (named
+    as the ensemble's parameters; 1-D or 2-D convolutions alike)."""
+    import onnx
+    from onnx import numpy_helper
+
+    weights = {t.name: numpy_helper.to_array(t) for t in onnx.load(str(path)).graph.initializer}
+    members = 1 + max(int(k.split(".")[1]) for k in weights if k.startswith("members."))
+    hidden, channels = weights["members.0.full_rate.0.weight"].shape[:2]
+    model = WindowEnsemble([WindowNet(channels, hidden) for _ in range(members)])
+    state = model.state_dict()
+    missing = sorted(set(state) - set(weights))
+    if missing:
+        raise ValueError(f"{path}: no weights for {', '.join(missing[:3])}: not a window network's ONNX file")
+    model.load_state_dict({k: torch.from_numpy(weights[k].reshape(state[k].shape).copy()) for k in state})
+    return model.eval()
+
+
+def export_again(models_dir: Path) -> ModelCard:
+    """The window network of ``models_dir`` written again in this code's export form, the same weights (read back
+    from its ONNX file), and its card's hash updated; what it was trained on and when stay as they were."""
+    models_dir = Path(models_dir)
+    card_path = models_dir / f"{NAME}.card.json"
+    card = ModelCard.model_validate_json(card_path.read_text())
+    path = models_dir / card.onnx_file
+    sha = _export(read_onnx(path), path)
+    card = card.model_copy(update={"onnx_sha256": sha})
+    card_path.write_text(card.model_dump_json(indent=2) + "\n")
     return card
 
 
