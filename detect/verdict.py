@@ -58,8 +58,10 @@ class Logistic:
     bias: np.ndarray  # [C]
 
     def probabilities(self, x: np.ndarray) -> np.ndarray:
-        """[N, F] -> [N, C]."""
-        z = ((np.atleast_2d(x) - self.mean) / self.scale) @ self.weights + self.bias
+        """[N, F] -> [N, C]; each row's the same whatever rows are beside it (the products summed in one order,
+        not by a matrix product whose order depends on the batch's size)."""
+        standard = (np.atleast_2d(x) - self.mean) / self.scale
+        z = (standard[:, :, None] * self.weights).sum(axis=1) + self.bias
         z -= z.max(axis=1, keepdims=True)
         e = np.exp(z)
         return e / e.sum(axis=1, keepdims=True)
@@ -373,19 +375,58 @@ def decide(
     """The verdict for one window: data problems first, then the stiction probability, then whether it
     oscillates (``canonical``: the loop is the canonical level loop, declared or recognised; ``sequence_p``: the
     window network's probability, None or nan where there is none)."""
+    return decide_rows(detector, [ev], [blocking_problems], [canonical], [sequence_p])[0]
+
+
+def decide_rows(
+    detector: Detector,
+    evs: list[Evidence],
+    blocking_problems: list[list[str]],
+    canonical: list[bool],
+    sequence_p: list[float | None],
+) -> list[Verdict]:
+    """``decide`` for each of many windows, the models evaluated on all of them at once (a call of the models costs
+    as much for one window as for a few hundred)."""
+    n = len(evs)
+    if n == 0:
+        return []
+    x = np.stack([ev.vector for ev in evs])
+    stuck = np.stack([ev.stuck for ev in evs])
+    osc, known = np.array([ev.oscillation.oscillating for ev in evs]), np.array(canonical, bool)
+    seq = np.array([np.nan if s is None else s for s in sequence_p], float)
+    read = np.isfinite(seq) & (detector.route(n, osc, known) < 2)
+    with np.errstate(invalid="ignore", over="ignore"):  # rows a data problem blocks are computed, never read
+        p = detector.stiction_probability(x, stuck, osc, known, seq)
+        alone = detector.stiction_probability(x, None, osc, known) if read.any() else np.full(n, np.nan)
+        contradict = disagree(alone, seq)
+        causes = detector.cause.probabilities(x) if osc.any() else None
+    return [
+        _verdict(detector, evs[i], blocking_problems[i], float(p[i]), float(alone[i]) if read[i] else None,
+                 float(seq[i]), bool(contradict[i]), None if causes is None else causes[i])
+        for i in range(n)
+    ]  # fmt: skip
+
+
+def _verdict(
+    detector: Detector,
+    ev: Evidence,
+    blocking_problems: list[str],
+    p: float,
+    alone: float | None,
+    seq: float,
+    contradict: bool,
+    cause_probabilities: np.ndarray | None,
+) -> Verdict:
+    """One window's verdict from its probabilities: ``p`` the verdict's, ``alone`` the statistics' where the window
+    network spoke (else None), ``seq`` the network's, ``contradict`` whether the two contradict each other."""
     if blocking_problems:
         return Verdict("bad_data", None, None, "; ".join(blocking_problems))
-    x = ev.vector[None, :]
-    osc, known = np.array([ev.oscillation.oscillating]), np.array([canonical])
-    seq = None if sequence_p is None else np.array([sequence_p], float)
-    p = float(detector.stiction_probability(x, ev.stuck[None, :], osc, known, seq)[0])
     read = None
-    if detector.route(1, osc, known)[0] < 2 and seq is not None and np.isfinite(seq[0]):
-        alone = detector.stiction_probability(x, None, osc, known)
+    if alone is not None:
         cycle = "with" if ev.oscillation.oscillating else "without"
         read = (f"window network: OP and PV's course, read sample by sample in a window {cycle} a regular cycle, "
-                f"gives {seq[0]:.2f} (the window's statistics alone {alone[0]:.2f})")  # fmt: skip
-        if disagree(alone, seq)[0]:
+                f"gives {seq:.2f} (the window's statistics alone {alone:.2f})")  # fmt: skip
+        if contradict:
             read += ": the two readings contradict each other"
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)
@@ -401,8 +442,7 @@ def decide(
         said = f"no regular oscillation (regularity {ev.oscillation.regularity:.2f})" + leans
         said += f"; {read}" if read else ""
         return Verdict("no_oscillation", p, None, said, sequence=read)
-    probs = detector.cause.probabilities(x)[0]
-    ranked = [detector.cause.classes[k] for k in np.argsort(probs)[::-1]]
+    ranked = [detector.cause.classes[k] for k in np.argsort(cause_probabilities)[::-1]]
     cause = next((c for c in ranked if c != "noise"), ranked[0])
     shape = "not clearly" if leans else "not"
     reason = f"oscillates (period {ev.oscillation.period_s:.4g} s) but {shape} like a sticky valve" + leans

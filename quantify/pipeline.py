@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from stiction.detect import features, sequence
-from stiction.detect.verdict import DETECTOR_FILE, Detector, decide
+from stiction.detect.verdict import DETECTOR_FILE, Detector, decide_rows
 from stiction.ident import controller
 from stiction.ident.checks import blocking, data_checks_rows
 from stiction.quantify import inlpca, physical, policy
@@ -146,10 +146,7 @@ class Quantifier:
                 seq[idx] = sequence_probabilities(
                     self.window_net, op[idx], pv[idx], [sps[i] for i in idx], self.sequence_chunks
                 )
-        verdicts = [
-            decide(self.detector, ev, said, bool(known), float(s))
-            for ev, said, known, s in zip(evs, blocked, level, seq, strict=True)
-        ]
+        verdicts = decide_rows(self.detector, evs, blocked, [bool(k) for k in level], [float(s) for s in seq])
         clock = self._lap("verdict", clock)
         sticky = np.array([v.verdict == "stiction" for v in verdicts])
         carried = sticky & np.array([w.carry is not None for w in windows])

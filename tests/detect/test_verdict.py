@@ -333,3 +333,26 @@ def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_c
         assert with_net[k] != base[k]
     assert with_net[2] == base[2]  # the canonical loop's model speaks alone
     assert with_net[3] == base[3]  # a window the network did not read: the cycle model alone
+
+
+def test_verdicts_made_together_are_each_windows_own_verdict(detector):
+    """``decide_rows`` (the pipeline's: the models run once on every window) against ``decide`` window by window: the
+    same verdicts to the last bit, whatever windows are beside one, over windows that cycle and do not, data
+    problems, the canonical loop, and a window network that spoke, did not, or read nothing."""
+    from stiction.detect.verdict import decide_rows
+
+    loops = family_loops(1, SIM_SEED + 1717)
+    recs = [r for r in simulate_families(loops) if stable(r)]
+    evs = [evidence(r.op, r.pv, r.ts_s, r.sp) for r in recs]
+    assert any(ev.oscillation.oscillating for ev in evs) and not all(ev.oscillation.oscillating for ev in evs)
+    rng = np.random.default_rng(5)
+    blocked = [["PV does not move"] if k % 9 == 4 else [] for k in range(len(evs))]
+    canonical = [k % 7 == 3 for k in range(len(evs))]
+    network = [None if k % 5 == 0 else (np.nan if k % 5 == 1 else float(rng.uniform())) for k in range(len(evs))]
+    together = decide_rows(detector, evs, blocked, canonical, network)
+    alone = [decide(detector, *args) for args in zip(evs, blocked, canonical, network, strict=True)]
+    assert together == alone
+    assert decide_rows(detector, evs[3:8], blocked[3:8], canonical[3:8], network[3:8]) == alone[3:8]
+    kinds = {v.verdict for v in together}
+    assert {"stiction", "bad_data"} <= kinds and kinds & {"other_cause", "no_oscillation"}
+    assert any(v.sequence for v in together) and not all(v.sequence for v in together)
