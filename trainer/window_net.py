@@ -181,8 +181,8 @@ def read_onnx(path: Path) -> WindowEnsemble:
 
     weights = {t.name: numpy_helper.to_array(t) for t in onnx.load(str(path)).graph.initializer}
     members = 1 + max(int(k.split(".")[1]) for k in weights if k.startswith("members."))
-    hidden, channels = weights["members.0.full_rate.0.weight"].shape[:2]
-    model = WindowEnsemble([WindowNet(channels, hidden) for _ in range(members)])
+    first = weights["members.0.full_rate.0.weight"].shape  # [hidden, channels, (1,) kernel]
+    model = WindowEnsemble([WindowNet(first[1], first[0], first[-1]) for _ in range(members)])
     state = model.state_dict()
     missing = sorted(set(state) - set(weights))
     if missing:
