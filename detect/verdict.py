@@ -14,6 +14,7 @@ they were trained on.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -382,11 +383,11 @@ def decide_rows(
     detector: Detector,
     evs: list[Evidence],
     blocking_problems: list[list[str]],
-    canonical: list[bool],
-    sequence_p: list[float | None],
+    canonical: Sequence[bool],
+    sequence_p: Sequence[float | None],
 ) -> list[Verdict]:
     """``decide`` for each of many windows, the models evaluated on all of them at once (a call of the models costs
-    as much for one window as for a few hundred)."""
+    as much for one window as for a few hundred); ``canonical`` and ``sequence_p`` lists or arrays."""
     n = len(evs)
     if n == 0:
         return []

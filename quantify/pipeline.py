@@ -146,7 +146,7 @@ class Quantifier:
                 seq[idx] = sequence_probabilities(
                     self.window_net, op[idx], pv[idx], [sps[i] for i in idx], self.sequence_chunks
                 )
-        verdicts = decide_rows(self.detector, evs, blocked, [bool(k) for k in level], [float(s) for s in seq])
+        verdicts = decide_rows(self.detector, evs, blocked, level, seq)
         clock = self._lap("verdict", clock)
         sticky = np.array([v.verdict == "stiction" for v in verdicts])
         carried = sticky & np.array([w.carry is not None for w in windows])
