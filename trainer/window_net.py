@@ -180,6 +180,8 @@ def read_onnx(path: Path) -> WindowEnsemble:
     from onnx import numpy_helper
 
     weights = {t.name: numpy_helper.to_array(t) for t in onnx.load(str(path)).graph.initializer}
+    if "members.0.full_rate.0.weight" not in weights:
+        raise ValueError(f"{path}: no weights for members.0.full_rate.0.weight: not a window network's ONNX file")
     members = 1 + max(int(k.split(".")[1]) for k in weights if k.startswith("members."))
     first = weights["members.0.full_rate.0.weight"].shape  # [hidden, channels, (1,) kernel]
     model = WindowEnsemble([WindowNet(first[1], first[0], first[-1]) for _ in range(members)])

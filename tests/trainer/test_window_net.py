@@ -91,3 +91,14 @@ def test_exporting_a_network_again_keeps_its_logits_and_card_and_renews_the_hash
     assert card.model_dump(exclude={"onnx_sha256"}) == before.model_dump(exclude={"onnx_sha256"})
     assert ModelCard.model_validate_json((tmp_path / f"{NAME}.card.json").read_text()) == card
     np.testing.assert_allclose(_logits(tmp_path / f"{NAME}.onnx", x), want, rtol=1e-5, atol=1e-5)
+
+
+def test_another_models_onnx_file_is_refused_by_name_not_read_as_a_window_network():
+    import pytest
+
+    from stiction.trainer.window_net import read_onnx
+
+    path = DEFAULT_MODELS_DIR / "thesis_mlp.onnx"
+    with pytest.raises(ValueError, match=r"thesis_mlp\.onnx.*not a window network") as e:
+        read_onnx(path)
+    assert "\n" not in str(e.value)
