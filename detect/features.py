@@ -134,16 +134,17 @@ def evidence_rows(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sps=None) -
     y_op, y_error = np.stack([d.y for d in d_op]), np.stack([d.y for d in d_error])
     acf = oscillation.autocorrelation(y_error, oscillation.max_lag(op.shape[1]))  # a flat row's: nan, unread
     products = horch.circular_products(y_op, -y_error)
+    stuck_steps = setpoint.stuck_steps_rows(edges_op, edges_pv, pv, sps)
     return [
         _evidence(
             op[i], pv[i], errors[i], sps[i], ts_s, bic[i], edges_op[i], edges_pv[i], (d_op[i], d_pv[i], d_error[i]),
-            (acf[i], products[i]),
+            (acf[i], products[i]), stuck_steps[i],
         )  # fmt: skip
         for i in range(op.shape[0])
     ]
 
 
-def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended, transforms) -> Evidence:
+def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended, transforms, steps) -> Evidence:
     d_op, d_pv, d_error = detrended
     acf, products = transforms
     osc = oscillation.detect(error, ts_s, d_error, acf)
@@ -165,6 +166,5 @@ def _evidence(op, pv, error, sp, ts_s, b, edges_op, edges_pv, detrended, transfo
             np.log(kernels.step_kurtosis(np.ascontiguousarray(edges_pv), oscillation.ROUNDING_REL) + 1e-3),
         ]
     )
-    steps = setpoint.stuck_steps(edges_op, edges_pv, pv, sp)
     step = max(steps, key=lambda st: st.travel_share) if steps else None
     return Evidence(osc, h, b, si_op, si_pv, vector, _stuck_ramp(edges_pv, pv, edges_op)[0], step)

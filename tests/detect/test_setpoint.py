@@ -97,3 +97,39 @@ def test_the_stuck_steps_travel_bounds_the_band_where_the_setpoint_is_known():
         assert with_sp >= without and with_sp == pytest.approx(max(without, step.travel))
         op, pv, sp, ts_s = _flow_loop(0.0, seed, 0.5, 1.0, load_pct=0.3)  # a moving valve: no step to add
         assert stuck_travel(op, pv, sp) == stuck_travel(op, pv)
+
+
+def test_the_row_batch_finds_the_same_steps_as_one_window_at_a_time():
+    """``stuck_steps_rows`` (the noise medians and OP's percentiles taken once for the batch) gives each row
+    exactly what ``stuck_steps`` gives it alone: sticky and moving valves, no setpoint, a setpoint that
+    never moves, a cascade's, a gappy one, a flat OP (no range), and a window shorter than the setpoint."""
+    from stiction.detect import setpoint
+    from stiction.detect.features import _edges
+
+    windows = [_flow_loop(6.0, s, g) for s in range(3) for g in (0.2, 0.5)]
+    windows += [_flow_loop(0.0, s, 0.5, d, load_pct=0.3) for s in range(2) for d in (0.0, 2.0)]
+    flat_op = np.full(windows[0][0].size, 40.0)
+    op = np.stack([w[0] for w in windows] + [windows[0][0], windows[1][0], windows[2][0], flat_op])
+    pv = np.stack([w[1] for w in windows] + [windows[0][1], windows[1][1], windows[2][1], windows[3][1]])
+    sp0 = windows[0][2]
+    gappy = sp0.copy()
+    gappy[::7] = np.nan
+    wandering = sp0 + np.random.default_rng(0).normal(0.0, 0.5, sp0.size)
+    sps = [w[2] for w in windows] + [None, np.full(sp0.size, sp0[0]), wandering, windows[3][2]]
+    sps[1] = gappy
+    sps[2] = sp0[:-3]  # a setpoint record that does not match the window: not read
+    edges_op, edges_pv = _edges(op), _edges(pv)
+    alone = [setpoint.stuck_steps(edges_op[i], edges_pv[i], pv[i], sps[i]) for i in range(len(sps))]
+    assert setpoint.stuck_steps_rows(edges_op, edges_pv, pv, sps) == alone
+    assert sum(bool(found) for found in alone) >= 3  # the comparison covers steps found, not only empty lists
+    assert setpoint.stuck_steps_rows(edges_op[:0], edges_pv[:0], pv[:0], []) == []
+
+
+def test_the_small_median_is_numpys():
+    from stiction.detect.setpoint import _median
+
+    rng = np.random.default_rng(3)
+    for size in range(1, 13):
+        x = rng.normal(size=size).round(1)  # ties included
+        assert _median(x) == float(np.median(x))
+    assert np.isnan(_median(np.array([1.0, np.nan, 2.0])))
