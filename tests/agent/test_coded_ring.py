@@ -120,3 +120,18 @@ def test_values_at_float64s_ends_are_held_within_a_step_and_raise_nothing(values
             ring.put(1 + k, [v]) if how == "put" else ring.write(slice(1 + k, 2 + k), np.array([v]))
         got = ring.read(np.arange(1, 1 + len(values)))
         assert np.all(np.isfinite(got)) and np.all(np.abs(got - np.array(values)) <= ring.step)
+
+
+def test_one_sample_at_a_time_codes_what_the_arrays_code():
+    """The one-sample path of ``put`` (the spec's stream) writes the bytes that ``write`` writes for the same
+    samples, through the grid's widenings (an outlier, then a wider signal) and on a ring that turns over."""
+    rng = np.random.default_rng(21)
+    stream = _stream(rng, 50.0, 20.0, 900)
+    stream[300] = 400.0  # an outlier: the grid widens
+    stream[600:] *= 3.0  # and widens again
+    one, arrays = CodedRing(250), CodedRing(250)
+    for seq, v in enumerate(stream):
+        one.put(seq % 250, [float(v)])
+        arrays.write(slice(seq % 250, seq % 250 + 1), np.array([v]))
+        assert one.step == arrays.step and one.base == arrays.base
+    assert one.buf == arrays.buf
