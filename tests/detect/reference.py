@@ -157,3 +157,20 @@ def step_kurtosis(y, rounding_rel):
     v = np.mean(d * d)
     rounding = rounding_rel * max(1.0, float(np.max(np.abs(y))))  # steps that differ by the arithmetic's rounding
     return float(np.mean(d**4) / v**2) if v > rounding**2 else 3.0
+
+
+def swings_sorted(y, crossings, through):
+    """Each half cycle's 90th percentile of |y| over y[a : b + through], read from the sorted half cycle as the
+    kernel reads it (lower value plus the share of the step to the next): the number the kernel's selection must
+    give to the bit."""
+    out = []
+    for a, b in zip(crossings[:-1], crossings[1:], strict=True):
+        b = b + through
+        if b <= a:
+            continue
+        v = np.sort(np.abs(y[a:b]))
+        pos = 0.9 * (b - a - 1)
+        lo = int(np.floor(pos))
+        hi = min(lo + 1, b - a - 1)
+        out.append(v[lo] + (v[hi] - v[lo]) * (pos - lo))
+    return np.array(out)

@@ -302,3 +302,26 @@ def test_a_flow_valve_stuck_while_op_ramps_reads_as_stuck_under_white_noise_as_w
         clean.append(evidence(op, square, 10.0).stuck_ramp)
         noisy.append(evidence(op, square + noise_pct * rng.standard_normal(n), 10.0).stuck_ramp)
     assert min(clean) >= STUCK_AT and sum(noisy) >= 0.9 * sum(clean), (clean, noisy)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_half_cycles_percentiles_by_selection_equal_those_of_a_sort(seed):
+    """``kernels._swings`` keeps only a half cycle's largest tenth as it walks it; its percentiles must be the sorted
+    half cycle's to the bit: half cycles of one to hundreds of samples, ties (a quantised signal), empty half cycles
+    (repeated crossings), a nan, and both ends in or out."""
+    from stiction.detect import kernels
+    from tests.detect import reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(50, 1200))
+    y = rng.standard_normal(n) * rng.uniform(0.1, 10)
+    if seed % 2:
+        y = np.round(y, 1)  # ties
+    if seed == 5:
+        y[int(rng.integers(0, n))] = np.nan
+    cuts = np.sort(rng.integers(0, n, int(rng.integers(2, 60))))
+    cuts = np.r_[0, cuts, cuts[:3], n - 1]  # some repeated: empty half cycles
+    cuts = np.sort(cuts).astype(np.int64)
+    for through in (0, 1):
+        got = kernels._swings(np.ascontiguousarray(y), cuts, through)
+        np.testing.assert_array_equal(got, reference.swings_sorted(y, cuts, through))
