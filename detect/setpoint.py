@@ -95,7 +95,7 @@ def stuck_steps(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray, sp: 
     steps = _steps(pv, sp, edges_op.size)
     if steps is None:
         return []
-    noise = _noise(np.median(np.abs(pv - edges_pv)))
+    noise = float(_noise(np.median(np.abs(pv - edges_pv))))
     steps = _counted(steps, noise)
     if steps is None:
         return []
