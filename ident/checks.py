@@ -122,16 +122,29 @@ def _frozen_message(op: np.ndarray, pv: np.ndarray, run: int, start: int) -> str
     """What a PV that repeats one value can be.  Where OP moved one way far meanwhile, a valve stuck
     shut (or fully stuck) looks the same as a dead sensor from OP and PV: both are said, neither chosen."""
     head = f"PV frozen at {pv[start]:.4g} for {run} of {pv.size} samples (from sample {start}): "
-    stretch = op[start : start + run]
+    return head + (_stuck_or_dead(op[start : start + run]) or "a sensor or archive that stopped updating")
+
+
+def _flat_message(op: np.ndarray, pv: np.ndarray) -> str:
+    """What a PV that never moves in the window can be: as ``_frozen_message``, over the whole window."""
+    head = f"PV does not move (constant at {pv[0]:.4g} over {pv.size} samples): "
+    return head + (_stuck_or_dead(op) or "a dead or disconnected sensor, nothing to read")
+
+
+def _stuck_or_dead(stretch: np.ndarray) -> str | None:
+    """Where OP moved one way by ``STUCK_SHUT_OP_PCT`` or more over the stretch of a PV that did not move: both
+    things it can be, neither chosen; else None."""
+    if stretch.size < 2:
+        return None
     travel = float(stretch[-1] - stretch[0])
     one_way = float(np.ptp(stretch)) <= ONE_WAY_SLACK * abs(travel)  # its noise may wiggle, not turn back
     if abs(travel) >= STUCK_SHUT_OP_PCT and one_way:
-        return head + (
+        return (
             f"meanwhile OP moved {travel:+.3g} % one way, so this is a valve that does not move at all (stuck, or "
             "shut) or a sensor or archive that stopped updating; OP and PV cannot tell which: check the valve "
             "and the transmitter"
         )
-    return head + "a sensor or archive that stopped updating"
+    return None
 
 
 def data_checks(op: np.ndarray, pv: np.ndarray) -> list[Check]:
@@ -140,14 +153,7 @@ def data_checks(op: np.ndarray, pv: np.ndarray) -> list[Check]:
     n = pv.size
     out: list[Check] = []
     if flat(pv):
-        out.append(
-            Check(
-                "flat_pv",
-                True,
-                f"PV does not move (constant at {pv[0]:.4g} over {n} samples): a dead or disconnected sensor, "
-                "nothing to read",
-            )
-        )
+        out.append(Check("flat_pv", True, _flat_message(op, pv)))
     else:
         run, start = _longest_run(pv)
         distinct = np.unique(pv).size

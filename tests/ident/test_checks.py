@@ -3,6 +3,8 @@ against the checks of each window alone, on windows that trip every check and on
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from stiction.ident.checks import data_checks, data_checks_rows
@@ -123,3 +125,27 @@ def test_a_record_whose_op_is_a_compressed_archive_gets_no_verdict_and_its_raw_r
         assert "compressed_op" in archive.checks and any("compressed archive" in w for w in archive.warnings)
         for kind in ("raw", "pv-only"):
             assert reports[f"{kind}-{i}"].verdict != "bad_data" and "compressed_op" not in reports[f"{kind}-{i}"].checks
+
+
+def test_a_pv_that_never_moves_while_op_winds_one_way_names_the_stuck_shut_valve_as_well_as_the_sensor():
+    """Flat or frozen, a PV that stays put while OP travels far one way may be a valve stuck shut as much as a dead
+    transmitter: the message says both and picks neither; OP that only wanders names the sensor alone."""
+    n = 400
+    rng = np.random.default_rng(5)
+    winding = np.linspace(20.0, 45.0, n) + rng.normal(0, 0.2, n)  # +25 % one way
+    wandering = 30 + 5 * np.sin(np.arange(n) / 20) + rng.normal(0, 0.2, n)
+    flat = np.full(n, 3.5e-44)  # a flow transmitter reading zero
+    frozen = 40 + rng.normal(0, 0.1, n)
+    frozen[50:] = frozen[50]
+
+    def message(op, pv):
+        (check,) = [c for c in data_checks(op, pv) if c.name in ("flat_pv", "frozen_pv")]
+        return check.message
+
+    for pv in (flat, frozen):
+        assert "stuck, or shut" in message(winding, pv) and "transmitter" in message(winding, pv)
+        travel = float(re.search(r"OP moved ([+-][\d.]+) % one way", message(winding, pv)).group(1))
+        assert 20.0 <= travel <= 26.0  # OP's net travel over the still stretch (from sample 50 for the frozen PV)
+        assert "stuck" not in message(wandering, pv)
+    assert "dead or disconnected sensor" in message(wandering, flat)
+    assert "stopped updating" in message(wandering, frozen)
