@@ -92,7 +92,7 @@ def _r2(x: np.ndarray) -> float:
 def stuck_steps(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray, sp: np.ndarray | None) -> list[StuckStep]:
     """The setpoint steps of one window whose response shows a stuck valve.  ``edges_op``,
     ``edges_pv``: OP and PV median-filtered (``detect.features._edges``); ``pv`` raw, for its noise."""
-    steps = _steps(pv, sp, edges_op.size)
+    steps = _steps(sp, edges_op.size)
     if steps is None:
         return []
     noise = float(_noise(np.median(np.abs(pv - edges_pv))))
@@ -108,7 +108,7 @@ def stuck_steps_rows(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray,
     medians and OP's percentiles of the rows whose setpoint moves taken in one call each (per row, numpy's
     ``median`` and ``percentile`` cost 0.1 ms a window), the same numbers as row by row."""
     found: list[list[StuckStep]] = [[] for _ in range(len(sps))]
-    changes = {i: _steps(pv[i], sp, edges_op.shape[1]) for i, sp in enumerate(sps)}
+    changes = {i: _steps(sp, edges_op.shape[1]) for i, sp in enumerate(sps)}
     moving = [i for i, change in changes.items() if change is not None]
     if not moving:
         return found
@@ -127,7 +127,7 @@ def stuck_steps_rows(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray,
     return found
 
 
-def _steps(pv: np.ndarray, sp: np.ndarray | None, n_op: int) -> np.ndarray | None:
+def _steps(sp: np.ndarray | None, n_op: int) -> np.ndarray | None:
     """The setpoint's changes (absolute, sample to sample), or None where it has no step to read:
     none given, too short a window, or a setpoint that never moves (the common case)."""
     if sp is None:
