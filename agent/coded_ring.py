@@ -134,25 +134,17 @@ class CodedRing:
         """Write a few samples (a sequence of floats) from ring position ``at`` on, none past the ring's end: a
         stream of a few samples a message, coded in Python (``_round_odd``, one number at a time), no array set up."""
         step = self.step
-        if step and len(values) == 1:  # one sample a message, the spec's stream: no list, no join
-            c = (values[0] - self.base) / step
-            if -CODE_REACH <= c <= CODE_REACH:
-                f = math.floor(c)
-                code = f if c == f or (f & 1) != self._base_odd() else f + 1
-                self.buf[CODE_BYTES * at : CODE_BYTES * (at + 1)] = code.to_bytes(CODE_BYTES, "little", signed=True)
-                return
-        elif step:
-            base, parity, codes = self.base, self._base_odd(), []
+        if step:
+            base, parity, coded = self.base, self._base_odd(), []
             for v in values:
                 c = (v - base) / step
                 if not -CODE_REACH <= c <= CODE_REACH:
                     break  # past the grid's reach: the grid widens (``write``)
                 f = math.floor(c)
-                codes.append(f if c == f or (f & 1) != parity else f + 1)
-            else:
-                self.buf[CODE_BYTES * at : CODE_BYTES * (at + len(codes))] = b"".join(
-                    c.to_bytes(CODE_BYTES, "little", signed=True) for c in codes
-                )
+                coded.append((f if c == f or (f & 1) != parity else f + 1).to_bytes(CODE_BYTES, "little", signed=True))
+            else:  # a one-sample message (the spec's stream) is written without a join
+                joined = coded[0] if len(coded) == 1 else b"".join(coded)
+                self.buf[CODE_BYTES * at : CODE_BYTES * (at + len(coded))] = joined
                 return
         self.write(slice(at, at + len(values)), np.asarray(values, float))
 
