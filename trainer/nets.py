@@ -146,14 +146,18 @@ def _as_conv2d(conv: nn.Conv1d) -> nn.Conv2d:
     return out
 
 
+def _height_one(layers: nn.Sequential) -> nn.Sequential:
+    """``layers`` with each 1-D convolution made 2-D (``_as_conv2d``), the rest as they are: the same indices, so
+    the same parameter names (``trainer.window_net.read_onnx`` reads them back by name)."""
+    return nn.Sequential(*[_as_conv2d(m) if isinstance(m, nn.Conv1d) else m for m in layers])
+
+
 class _WindowNet2d(nn.Module):
     """A ``WindowNet`` computed on [B, C, 1, N]: its convolutions, pooling and GELUs, height one."""
 
     def __init__(self, net: WindowNet):
         super().__init__()
-        full, half = net.full_rate, net.half_rate
-        self.full_rate = nn.Sequential(_as_conv2d(full[0]), nn.GELU(), _as_conv2d(full[2]), nn.GELU())
-        self.half_rate = nn.Sequential(*[m for k in (0, 2, 4) for m in (_as_conv2d(half[k]), nn.GELU())])
+        self.full_rate, self.half_rate = _height_one(net.full_rate), _height_one(net.half_rate)
         self.out = net.out
 
     def forward(self, x):  # [B, C, 1, N] -> [B]
