@@ -92,21 +92,14 @@ def _r2(x: np.ndarray) -> float:
 def stuck_steps(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray, sp: np.ndarray | None) -> list[StuckStep]:
     """The setpoint steps of one window whose response shows a stuck valve.  ``edges_op``,
     ``edges_pv``: OP and PV median-filtered (``detect.features._edges``); ``pv`` raw, for its noise."""
-    steps = _steps(sp, edges_op.size)
-    if steps is None:
-        return []
-    noise = float(_noise(np.median(np.abs(pv - edges_pv))))
-    steps = _counted(steps, noise)
-    if steps is None:
-        return []
-    range_op = float(np.percentile(edges_op, 97.5) - np.percentile(edges_op, 2.5))
-    return _stuck(edges_op, edges_pv, np.asarray(sp, float), steps, noise, range_op)
+    return stuck_steps_rows(edges_op[None, :], edges_pv[None, :], np.asarray(pv, float)[None, :], [sp])[0]
 
 
 def stuck_steps_rows(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray, sps) -> list[list[StuckStep]]:
     """``stuck_steps`` of each row of [W, N] arrays (``sps``: each row's setpoint or None): the noise
     medians and OP's percentiles of the rows whose setpoint moves taken in one call each (per row, numpy's
-    ``median`` and ``percentile`` cost 0.1 ms a window), the same numbers as row by row."""
+    ``median`` and ``percentile`` cost 0.1 ms a window), the same numbers as row by row (the test compares them
+    with ``tests/detect/reference.py``'s window at a time)."""
     found: list[list[StuckStep]] = [[] for _ in range(len(sps))]
     changes = {i: _steps(sp, edges_op.shape[1]) for i, sp in enumerate(sps)}
     moving = [i for i, change in changes.items() if change is not None]

@@ -174,3 +174,19 @@ def swings_sorted(y, crossings, through):
         hi = min(lo + 1, b - a - 1)
         out.append(v[lo] + (v[hi] - v[lo]) * (pos - lo))
     return np.array(out)
+
+
+def stuck_steps_alone(edges_op, edges_pv, pv, sp):
+    """``detect.setpoint``'s stuck steps of one window, its statistics taken with numpy's per-row calls (the
+    median of PV's distance to its level, OP's two percentiles), as before the batch took them at once."""
+    from stiction.detect import setpoint
+
+    change = setpoint._steps(sp, edges_op.size)
+    if change is None:
+        return []
+    noise = float(setpoint._noise(np.median(np.abs(pv - edges_pv))))
+    steps = setpoint._counted(change, noise)
+    if steps is None:
+        return []
+    range_op = float(np.percentile(edges_op, 97.5) - np.percentile(edges_op, 2.5))
+    return setpoint._stuck(edges_op, edges_pv, np.asarray(sp, float), steps, noise, range_op)

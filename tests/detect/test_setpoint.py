@@ -101,10 +101,12 @@ def test_the_stuck_steps_travel_bounds_the_band_where_the_setpoint_is_known():
 
 def test_the_row_batch_finds_the_same_steps_as_one_window_at_a_time():
     """``stuck_steps_rows`` (the noise medians and OP's percentiles taken once for the batch) gives each row
-    exactly what ``stuck_steps`` gives it alone: sticky and moving valves, no setpoint, a setpoint that
-    never moves, a cascade's, a gappy one, a flat OP (no range), and a window shorter than the setpoint."""
+    exactly what the window alone gives with numpy's per-row statistics (``reference.stuck_steps_alone``): sticky
+    and moving valves, no setpoint, a setpoint that never moves, a cascade's, a gappy one, a flat OP (no range),
+    and a window shorter than the setpoint."""
     from stiction.detect import setpoint
     from stiction.detect.features import _edges
+    from tests.detect import reference
 
     windows = [_flow_loop(6.0, s, g) for s in range(3) for g in (0.2, 0.5)]
     windows += [_flow_loop(0.0, s, 0.5, d, load_pct=0.3) for s in range(2) for d in (0.0, 2.0)]
@@ -119,8 +121,9 @@ def test_the_row_batch_finds_the_same_steps_as_one_window_at_a_time():
     sps[1] = gappy
     sps[2] = sp0[:-3]  # a setpoint record that does not match the window: not read
     edges_op, edges_pv = _edges(op), _edges(pv)
-    alone = [setpoint.stuck_steps(edges_op[i], edges_pv[i], pv[i], sps[i]) for i in range(len(sps))]
+    alone = [reference.stuck_steps_alone(edges_op[i], edges_pv[i], pv[i], sps[i]) for i in range(len(sps))]
     assert setpoint.stuck_steps_rows(edges_op, edges_pv, pv, sps) == alone
+    assert [setpoint.stuck_steps(edges_op[i], edges_pv[i], pv[i], sps[i]) for i in range(len(sps))] == alone
     assert sum(bool(found) for found in alone) >= 3  # the comparison covers steps found, not only empty lists
     assert setpoint.stuck_steps_rows(edges_op[:0], edges_pv[:0], pv[:0], []) == []
 
