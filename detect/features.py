@@ -111,6 +111,7 @@ def warm_up() -> None:
     evidence(np.sin(t / 7), np.sign(np.sin(t / 7)), 1.0)
     smooth, crossings = oscillation.half_cycles(np.sin(t / 7), 1.0)  # a cycle of outlying periods reads it
     kernels.swing_spread(np.ascontiguousarray(smooth, dtype=float), crossings)
+    kernels.median(np.arange(5.0))  # the stuck setpoint step's, read only where a setpoint moves
 
 
 def evidence(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, sp: np.ndarray | None = None) -> Evidence:

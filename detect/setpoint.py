@@ -40,6 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stiction.detect import kernels
+
 MAX_STEPS = 20
 """More setpoint changes than this in a window: a cascade's moving setpoint, not operator steps."""
 STEP_NOISE = 3.0
@@ -71,15 +73,6 @@ def _level(y: np.ndarray) -> np.ndarray:
     padded = np.concatenate([np.full(2, y[0]), y, np.full(2, y[-1])])
     c = np.cumsum(np.concatenate([[0.0], padded]))
     return (c[5:] - c[:-5]) / 5.0
-
-
-def _median(x: np.ndarray) -> float:
-    """``np.median`` of a few samples, the same number at a tenth of its cost (nan if any is nan)."""
-    s = np.sort(x)
-    m = s.size // 2
-    if s.size == 0 or np.isnan(s[-1]):
-        return float("nan")
-    return float(s[m]) if s.size % 2 else float((s[m - 1] + s[m]) / 2)
 
 
 def _r2(x: np.ndarray) -> float:
@@ -157,8 +150,8 @@ def _stuck(u: np.ndarray, edges_pv: np.ndarray, sp: np.ndarray, steps, noise: fl
         if s < 5 or e - s < MIN_STILL + 2:
             continue
         d_sp = sp[s] - sp[s - 1]
-        before = _median(level[max(0, s - 10) : s])
-        u0 = _median(u[s - 5 : s])
+        before = float(kernels.median(np.ascontiguousarray(level[max(0, s - 10) : s])))
+        u0 = float(kernels.median(np.ascontiguousarray(u[s - 5 : s])))
         progress = np.sign(d_sp) * (level[s:e] - before) / abs(d_sp)
         zone = max(ZONE, 3.0 * noise / np.sqrt(5.0) / abs(d_sp))
         left = np.flatnonzero(progress > zone)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stiction.detect import kernels
 from stiction.ident.segment import noise_variance, segment_ends
 from stiction.quantify import physical_kernel
 from stiction.sim.process import LOOPS
@@ -58,8 +59,8 @@ def reconstruct_mv(pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_
 
 
 def _median(x) -> float:
-    """``np.median`` of a 1-d array, compiled (``quantify.physical_kernel.median``)."""
-    return physical_kernel.median(np.ascontiguousarray(x, dtype=float))
+    """``np.median`` of a 1-d array, compiled (``detect.kernels.median``)."""
+    return kernels.median(np.ascontiguousarray(x, dtype=float))
 
 
 def _from_slips(gap_stuck, gap_broke, gap_after) -> tuple[float, float, float, float]:

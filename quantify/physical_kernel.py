@@ -40,18 +40,3 @@ def piece_means(f, ends):
         out[i] = total / (ends[i] - start)
         start = ends[i]
     return out
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def median(x):
-    """``np.median`` of a 1-d array (nan if it holds one): the mean of the two middle values of an even
-    count.  The reading takes four medians a window's slips, where numpy's call cost 80 us."""
-    n = x.size
-    if n == 0:
-        return np.nan
-    s = np.sort(x)
-    if np.isnan(s[-1]):
-        return np.nan
-    if n % 2:
-        return s[n // 2]
-    return (s[n // 2 - 1] + s[n // 2]) / 2.0

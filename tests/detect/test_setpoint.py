@@ -126,13 +126,3 @@ def test_the_row_batch_finds_the_same_steps_as_one_window_at_a_time():
     assert [setpoint.stuck_steps(edges_op[i], edges_pv[i], pv[i], sps[i]) for i in range(len(sps))] == alone
     assert sum(bool(found) for found in alone) >= 3  # the comparison covers steps found, not only empty lists
     assert setpoint.stuck_steps_rows(edges_op[:0], edges_pv[:0], pv[:0], []) == []
-
-
-def test_the_small_median_is_numpys():
-    from stiction.detect.setpoint import _median
-
-    rng = np.random.default_rng(3)
-    for size in range(1, 13):
-        x = rng.normal(size=size).round(1)  # ties included
-        assert _median(x) == float(np.median(x))
-    assert np.isnan(_median(np.array([1.0, np.nan, 2.0])))

@@ -325,3 +325,17 @@ def test_the_half_cycles_percentiles_by_selection_equal_those_of_a_sort(seed):
     for through in (0, 1):
         got = kernels._swings(np.ascontiguousarray(y), cuts, through)
         np.testing.assert_array_equal(got, reference.swings_sorted(y, cuts, through))
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 5, 7, 10, 40, 501])
+def test_the_compiled_median_is_numpys(n):
+    """``kernels.median`` (the physical reading's medians over slips, the stuck setpoint step's over a few samples)
+    is numpy's median to the bit, ties included, and nan where a value is."""
+    from stiction.detect import kernels
+
+    x = np.random.default_rng(n).normal(size=n).round(1) * 3  # rounded: ties
+    want = np.median(x) if n else np.nan
+    assert kernels.median(x) == want or (np.isnan(want) and np.isnan(kernels.median(x)))
+    if n:
+        x[n // 2] = np.nan
+        assert np.isnan(kernels.median(x))

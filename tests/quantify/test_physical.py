@@ -71,15 +71,3 @@ def test_the_compiled_stem_recursion_and_piece_means_follow_numpy():
     ends = np.array([1, 7, 8, 150, 151, 399, 400])
     want = [flow[0, a:b].mean() for a, b in zip([0, *ends[:-1]], ends, strict=True)]
     np.testing.assert_allclose(physical_kernel.piece_means(flow[0], ends), want, rtol=1e-13, atol=1e-13)
-
-
-@pytest.mark.parametrize("n", [0, 1, 2, 7, 40, 501])
-def test_the_compiled_median_is_numpys(n):
-    from stiction.quantify import physical_kernel
-
-    x = np.random.default_rng(n).normal(size=n) * 3
-    want = np.median(x) if n else np.nan
-    assert physical_kernel.median(x) == want or (np.isnan(want) and np.isnan(physical_kernel.median(x)))
-    if n:
-        x[n // 2] = np.nan
-        assert np.isnan(physical_kernel.median(x))
