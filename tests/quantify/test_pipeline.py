@@ -502,6 +502,7 @@ _FIRST_REPORTS = """
 import sys
 import numpy as np
 from numba.core.registry import CPUDispatcher
+from stiction.detect import kernels as detect_kernels
 from stiction.ident import kernels
 from stiction.quantify import physical_kernel as p, pipeline
 from stiction.quantify.window import Window
@@ -521,7 +522,8 @@ for i, (op, pv, sp, _) in enumerate(simulate_plant(plant_loops(2, 11), 0.5, 1000
         windows.append(Window(f"P{i}", op.astype(np.float32), pv.astype(np.float32), 1.0, 1000.0, sp=sp))
 quantifier = pipeline.Quantifier()
 pipeline.warm_up()
-print(*[k.__name__ for k in (p.stem_from_flow, p.piece_means, p.median, kernels.segment_row) if not k.signatures])
+print(*[k.__name__ for k in (p.stem_from_flow, p.piece_means, detect_kernels.median, kernels.segment_row)
+        if not k.signatures])
 
 def signatures():
     return {f"{name}.{k}": len(v.signatures) for name, m in list(sys.modules.items()) if name.startswith("stiction")
