@@ -43,7 +43,7 @@ def _one(item) -> dict:
     if r.s_pct is not None:
         # the fit's own errors: the model error taken back out
         row["s_se_fit"] = float(np.sqrt(max(r.s_se_pct**2 - (MODEL_ERROR_S * r.s_pct) ** 2, 0.0)))
-    if r.j_pct is not None:  # S may be read alone (ident.trust.band_alone)
+    if r.j_pct is not None:  # a report may give S without J (the schema allows it)
         row["j_se_fit"] = float(np.sqrt(max(r.j_se_pct**2 - (MODEL_ERROR_J * r.s_pct) ** 2, 0.0)))
     if r.learned.fs_pct is not None:
         s, j = band_and_jump_pct(r.learned.fs_pct, r.learned.fd_pct)
@@ -62,7 +62,7 @@ def _score(rows: list[dict], s: str, s_se: str | None, j: str | None = None, j_s
     if s_se:
         out["s_covered"] = float(np.mean([abs(r[s] - r["s_true"]) <= 2 * r[s_se] for r in read]))
     if j and j_se:
-        with_j = [r for r in read if r.get(j) is not None]  # S may be read alone (ident.trust.band_alone)
+        with_j = [r for r in read if r.get(j) is not None]  # a report may give S without J (the schema allows it)
         out["j_read"] = len(with_j)
         if with_j:
             out["j_covered"] = float(np.mean([abs(r[j] - r["j_true"]) <= 2 * r[j_se] for r in with_j]))

@@ -22,8 +22,7 @@ from stiction.ident.models import (
 from stiction.ident.process import NOMINAL, ranged
 from stiction.ident.record import Record
 from stiction.ident.trust import (
-    J_NOT_SEPARABLE,
-    band_alone,
+    band_bound,
     band_doubts,
     dragged,
     explains_none,
@@ -209,11 +208,12 @@ def diagnosis_report(
     if moved:  # no stuck phase to read a band from (ident.trust)
         notes.append(moved)
         withheld = True
-    alone = None if withheld else band_alone(f)  # the stop held at its bound: S alone (ident.trust)
-    if alone is not None:
-        notes.append(J_NOT_SEPARABLE)
+    bound = None if withheld else band_bound(f)  # the stop held at its bound: S is a bound (ident.trust)
+    if bound is not None:
+        notes.append(bound)
+        withheld = True
     # the fit's errors assume its model is right; a real loop's process is only near one (ident.sizing)
-    f = _without_friction(f) if withheld else (alone or with_model_error(f))
+    f = _without_friction(f) if withheld else with_model_error(f)
     unsure = None if withheld else without_uncertainty(f)
     if unsure:
         notes.append(unsure)

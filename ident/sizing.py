@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from stiction.ident.models import is_lag_line
-from stiction.ident.trust import J_NOT_SEPARABLE, band_doubts
+from stiction.ident.trust import band_doubts
 from stiction.schemas.diagnosis import Process
 from stiction.sim.valve import friction_pct, friction_se_pct
 
@@ -85,9 +85,6 @@ def _sizing(report) -> Sizing:
     s, j, s_se, j_se = (nan if v is None else float(v) for v in (report.s_pct, report.j_pct, report.s_se_pct,
                                                                   report.j_se_pct))  # fmt: skip
     process, slips = report.process, int(report.slips)
-    if math.isfinite(s) and math.isfinite(s_se) and not math.isfinite(j):  # S alone (ident.trust.band_alone)
-        doubts = (J_NOT_SEPARABLE, *band_doubts(s, s_se, process), *lag_doubt(report, s, s_se))
-        return Sizing(s, nan, s_se, nan, process, slips, doubts=doubts)
     if not (math.isfinite(s) and math.isfinite(j) and math.isfinite(s_se)):
         why = _why_not(report)
         return Sizing(nan, nan, nan, nan, process, slips, why)

@@ -31,8 +31,8 @@ def _title(report) -> str:
 
 
 def _band(s_pct, s_se_pct, j_pct, j_se_pct, pm: str) -> str:
-    """S and J with their errors (``pm`` between, an error left out where there is none); S alone where J is not
-    read (the fit's stop held at its bound: ``ident.trust.band_alone``)."""
+    """S and J with their errors (``pm`` between, an error left out where there is none); S alone where a report
+    gives it without J (the schema allows it; the sizing did from 2026-11-27 to 2026-11-29)."""
 
     def err(se) -> str:
         return f" {pm} {se:.2f}" if se is not None else ""

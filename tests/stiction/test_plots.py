@@ -16,7 +16,7 @@ def _report(warnings):
 
 
 def test_s_read_alone_is_titled_without_j():
-    # the fit's stop held at its bound: S given, J, fs and fd null (ident.trust.band_alone)
+    # a report that gives S without J, fs and fd (the schema allows it)
     report = _report(["J not read: ..."])
     report.j_pct = report.j_se_pct = report.fs_pct = report.fd_pct = None
     head = _title(report).splitlines()[0]
