@@ -69,11 +69,15 @@ def _score(rows: list[dict], s: str, s_se: str | None, j: str | None = None, j_s
     return out
 
 
-SIMULATORS = ("plant", "two_parameter")
+SIMULATORS = ("plant", "two_parameter", "families")
 """Where the sticky loops come from: ``sim.plant_loops`` (the physical valve the fit assumes, under processes and
 tunings of its own), or ``sim.two_parameter``, the independent simulator (Choudhury's data-driven valve, which the
 fit does not assume, under SIMC-tuned flows and levels): its loops whose record shows a fault, stick-slip or
-backlash, S and J by the same definition."""
+backlash, S and J by the same definition; or ``sim.plant_families``, the families the verdict is judged on (flow,
+level, slow and detuned loops; stick-slip, He's valve, backlash and both; setpoint steps, loads, coloured noise,
+sampling up to 60 s): their loops whose record of ``FAMILY_SAMPLES`` shows the fault."""
+FAMILY_SAMPLES = 1000
+"""The families' records as the agent's window holds them (the families' own windows are 600 samples)."""
 
 
 def _items(simulator: str, n: int, seed: int) -> list:
@@ -95,6 +99,15 @@ def _items(simulator: str, n: int, seed: int) -> list:
         return [
             (loop.s_pct, loop.j_pct, 1, (rec.op, rec.pv, rec.sp, rec.ts_s))
             for loop, rec in zip(loops, two_parameter.simulate(loops), strict=True)
+            if stable(rec) and rec.shows_fault
+        ]
+    if simulator == "families":
+        from stiction.sim.plant_families import FAULTS, family_loops, simulate_families, stable
+
+        loops = [loop for loop in family_loops(n, seed) if loop.cause in FAULTS]
+        return [
+            (loop.s_pct, loop.j_pct, loop.every, (rec.op, rec.pv, rec.sp, rec.ts_s))
+            for loop, rec in zip(loops, simulate_families(loops, samples=FAMILY_SAMPLES), strict=True)
             if stable(rec) and rec.shows_fault
         ]
     raise ValueError(f"simulator {simulator!r}: one of {', '.join(SIMULATORS)}")
@@ -140,7 +153,8 @@ def bench_sizing(
 def _reason(why: str | None) -> str:
     if why is None:
         return "other"
-    for key, name in (("dragged", "a dragged valve: no stuck phase"), ("slip", "too few slips"),
+    for key, name in (("dragged", "a dragged valve: no stuck phase"), ("stop at its bound", "S, J not separable"),
+                      ("slip", "too few slips"),
                       ("jump", "S, J not separable"), ("does not stick", "linear valve explains PV as well"),
                       ("identified", "identification failed")):  # fmt: skip
         if key in why:
@@ -152,6 +166,7 @@ def print_table(fig: dict) -> None:
     what = {
         "plant": "simulated plant-like sticky loops",
         "two_parameter": "the independent simulator's sticky loops (sim.two_parameter, Choudhury's valve)",
+        "families": f"the verdict's families' sticky loops (sim.plant_families, records of {FAMILY_SAMPLES} samples)",
     }
     recorded = ", recorded direct-acting (OP as 100 - OP)" if fig.get("direct_acting") else ""
     print(f"{what[fig.get('simulator', 'plant')]} (seed {fig['seed']}{recorded}): {fig['called_sticky']} of "

@@ -165,10 +165,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     z.add_argument("--workers", type=int, default=2)
     z.add_argument(
         "--simulator",
-        choices=("plant", "two_parameter"),
+        choices=("plant", "two_parameter", "families"),
         default="plant",
         help="plant: sim.plant_loops (the physical valve the fit assumes); two_parameter: the independent simulator "
-        "(Choudhury's valve under SIMC-tuned flows and levels; --loops per cause)",
+        "(Choudhury's valve under SIMC-tuned flows and levels; --loops per cause); families: the verdict's families "
+        "(sim.plant_families: flow, level, slow, detuned; stick-slip, He's valve, backlash; --loops per cause and "
+        "family), the records that show the fault",
     )
     z.add_argument(
         "--direct-acting",
