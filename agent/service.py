@@ -73,6 +73,9 @@ class AgentSettings:
     size_every_s: float = 3600.0
     """A loop called sticky whose process is unknown has it identified and S and J read under it once
     in this long, on a worker process of lowered priority (``agent.sizing_plan``); 0: never."""
+    size_workers: int = 1
+    """Worker processes for those sizings, each one loop at a time (seconds of CPU a loop: about 1,000 loops an
+    hour a worker here, docs/scaling.md); a loop waits in a queue while every worker is busy."""
 
     @property
     def prefix(self) -> str:
@@ -134,7 +137,7 @@ class AgentService:
         self.sink = sink  # optional viewer: log_report(report, window, details, truth)
         self.truths: dict[str, tuple[float, float]] = {}
         self.sink_errors = 0
-        self.sizing = SizingPlan(settings.size_every_s) if settings.size_every_s > 0 else None
+        self.sizing = SizingPlan(settings.size_every_s, settings.size_workers) if settings.size_every_s > 0 else None
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
         self._stems: dict = {}  # future -> loop_id: the measured stems being checked
@@ -389,9 +392,9 @@ class AgentService:
         self.sizing.started(loop_id, len(op), partial)
 
     def _pool(self):
-        """The background worker (one process of lowered priority), started when first needed."""
+        """The background workers (``size_workers`` processes of lowered priority), started when first needed."""
         if self._size_pool is None:
-            self._size_pool = sizing_pool(1, initializer=lower_priority)
+            self._size_pool = sizing_pool(self.settings.size_workers, initializer=lower_priority)
         return self._size_pool
 
     def _check_stem(self, w) -> None:

@@ -43,8 +43,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=60.0,
         metavar="MINUTES",
         help="a loop called sticky whose process is unknown has it identified and S and J read under it, and a loop "
-        "whose stream carries the valve position (mv) has its stem checked against OP, in the background on one "
-        "worker of lowered priority, once in this many minutes (default 60; 0: never)",
+        "whose stream carries the valve position (mv) has its stem checked against OP, in the background on "
+        "workers of lowered priority, once in this many minutes (default 60; 0: never)",
+    )
+    p.add_argument(
+        "--size-workers",
+        type=int,
+        default=1,
+        metavar="N",
+        help="worker processes for those sizings (default 1): each sizes about 1,000 loops an hour on a core of its "
+        "own; more sticky loops of unknown process than that are sized less often than --size-every",
     )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     p.add_argument("--rerun", metavar="MODE", help="show the loops in rerun: save:PATH, spawn or serve (web viewer)")
@@ -74,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.size_every < 0:
         raise InputError(f"--size-every {args.size_every:g}: minutes, at least 0 (0: never)")
+    if args.size_workers < 1:
+        raise InputError(f"--size-workers {args.size_workers}: at least 1 worker process")
     if args.window < 100 or args.first_window < 100 or args.report_every < 1 or args.estimate_every < 1:
         raise InputError(
             "--window and --first-window must be at least 100 samples, --report-every and --estimate-every at least 1"
@@ -89,7 +99,13 @@ def run(args: argparse.Namespace) -> int:
         first_report_samples=args.first_window,
         estimate_every=args.estimate_every,
     )
-    settings = AgentSettings(agent_id=agent_id, core=core, size_every_s=60.0 * args.size_every, models_dir=args.models)
+    settings = AgentSettings(
+        agent_id=agent_id,
+        core=core,
+        size_every_s=60.0 * args.size_every,
+        size_workers=args.size_workers,
+        models_dir=args.models,
+    )
     log.info("settings: %s", settings)
     stop = stop_on_signals()
     sink = open_sink(args.rerun)
