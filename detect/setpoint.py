@@ -107,7 +107,7 @@ def stuck_steps_rows(edges_op: np.ndarray, edges_pv: np.ndarray, pv: np.ndarray,
     if not stepped:
         return found
     rows = [i for i, _, _ in stepped]
-    hi, lo = np.percentile(edges_op[rows], 97.5, axis=1), np.percentile(edges_op[rows], 2.5, axis=1)
+    lo, hi = np.percentile(edges_op[rows], [2.5, 97.5], axis=1)
     for (i, noise, steps), h, low in zip(stepped, hi, lo, strict=True):
         found[i] = _stuck(edges_op[i], edges_pv[i], np.asarray(sps[i], float), steps, noise, float(h - low))
     return found
