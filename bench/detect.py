@@ -79,6 +79,19 @@ def _settled(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, held: np.nda
     return rates, float(np.mean(unsettled[held]))
 
 
+def _false_alarms(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, fault_valve: np.ndarray) -> dict:
+    """The settled windows labelled healthy (``_settled``) called stiction, split by the valve they were given:
+    a healthy valve (a look-alike's: the false alarm that sends a crew to a good valve) or a faulty valve whose
+    window does not show its fault as the label asks (fewer than ``FAULT_EVENTS`` slips, or an effect under
+    ``VISIBLE_EFFECT`` noises): {split: {"called": n, "of": m}}."""
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+
+    healthy = ~truth & ~blocked & ((p < LEANS_AT) | (p >= STICTION_AT))
+    called = p >= STICTION_AT
+    return {name: {"called": int(np.sum(called & healthy & valve)), "of": int(np.sum(healthy & valve))}
+            for name, valve in (("healthy_valve", ~fault_valve), ("faulty_valve_not_shown", fault_valve))}  # fmt: skip
+
+
 def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
     """Sensitivity, specificity, balanced accuracy and accuracy of boolean calls against the truth."""
     sens = float(np.mean(called[truth])) if truth.any() else float("nan")
@@ -250,10 +263,12 @@ def bench_detect(
     # the windows the verdict does not settle: those it leans on, and those whose data it does not read (bad_data:
     # a compressed archive's, a dead sensor's); counted neither way in the settled figures, their share said
     blocked = np.array([r[3] for r in rows], bool)
+    fault_valve = np.array([r[0].fault for r in rows])
     for f in FAMILIES:
         held = family == f
         row = _method_rows(calls, truth, osc, held)
         row["ours_settled"], row["cannot_tell"] = _settled(p, truth, blocked, held)
+        row["false_alarms"] = _false_alarms(p[held], truth[held], blocked[held], fault_valve[held])
         # the same for the verdict without the window network
         row["statistics_settled"], row["statistics_cannot_tell"] = _settled(p_stat, truth, blocked, held)
         row["ours_stem_slipped"] = _rates(calls_ours[held], slipped[held])
@@ -345,6 +360,12 @@ def print_table(fig: dict) -> None:
     settled = {f: r["ours_settled"]["balanced"] for f, r in fig["families"].items()}
     print(f"ours, the windows it settles (p below {LEANS_AT} or from {STICTION_AT}, data read): balanced "
           + ", ".join(f"{f} {v:.2f}" for f, v in settled.items()))  # fmt: skip
+    if all("false_alarms" in r for r in fig["families"].values()):
+        print("ours, the settled windows labelled healthy that it calls: of healthy valves, of faulty valves whose "
+              "window does not show the fault (one slip, or under the noise) " + ", ".join(
+                  f"{f} {a['healthy_valve']['called']} of {a['healthy_valve']['of']}, "
+                  f"{a['faulty_valve_not_shown']['called']} of {a['faulty_valve_not_shown']['of']}"
+                  for f, r in fig["families"].items() for a in [r["false_alarms"]]))  # fmt: skip
     if all("statistics_settled" in r for r in fig["families"].values()):
         print("statistics (without the window network), the windows it settles: balanced " + ", ".join(
             f"{f} {r['statistics_settled']['balanced']:.2f} ({100 * r['statistics_cannot_tell']:.0f} % not settled)"

@@ -3,7 +3,7 @@
 import pytest
 
 from stiction.bench.detect import METHODS, bench_detect, print_table
-from stiction.sim.plant_families import FAMILIES
+from stiction.sim.plant_families import FAMILIES, FAULTS
 from stiction.trainer.window_net import WindowNetSettings
 
 
@@ -46,13 +46,21 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
                if not w["blocked"] and not 0.35 <= w["p"] < 0.5]  # fmt: skip
     assert m["ours_settled"]["n"] == len(settled) <= m["windows"] - m["bad_data"]
     assert m["ours_settled"]["accuracy"] == sum(c == s for c, s in settled) / len(settled)
+    # the settled false alarms, split by the valve the window was given, give back each family's windows
+    for f, row in fig["families"].items():
+        alarms = [w for w in fig["windows"] if w["family"] == f and not w["shows_fault"] and not w["blocked"]
+                  and not 0.35 <= w["p"] < 0.5]  # fmt: skip
+        for split, valve in (("healthy_valve", False), ("faulty_valve_not_shown", True)):
+            mine = [w for w in alarms if (w["cause"] in FAULTS) == valve]
+            assert row["false_alarms"][split] == {"called": sum(w["p"] >= 0.5 for w in mine), "of": len(mine)}
+        assert sum(a["of"] for a in row["false_alarms"].values()) == len(alarms)
     print_table(fig)
     out = capsys.readouterr().out
     assert "leave-one-family-out" in out and "leave-one-tag-out" in out and "cannot tell" in out
     assert "another simulator" in out
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
     assert "effect on PV over the noise" in out and "the label before" in out
-    assert "measured windows it settles" in out
+    assert "measured windows it settles" in out and "of faulty valves whose window does not show" in out
     # the independent simulator's settled figures, from its windows: the unsettled and the unread counted neither way
     for kind, row in fig["two_parameter"].items():
         mine = [w for w in fig["two_parameter_windows"] if w["kind"] == kind]
