@@ -61,6 +61,7 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
     assert "effect on PV over the noise" in out and "the label before" in out
     assert "measured windows it settles" in out and "of faulty valves whose window does not show" in out
+    assert "+- two standard errors" in out
     # the independent simulator's settled figures, from its windows: the unsettled and the unread counted neither way
     for kind, row in fig["two_parameter"].items():
         mine = [w for w in fig["two_parameter_windows"] if w["kind"] == kind]
@@ -88,3 +89,24 @@ def test_a_folder_without_labelled_exports_is_named_not_judged_on_nothing(tmp_pa
         labelled_exports([tmp_path])
     [(tag, sticky, export)] = labelled_exports([tmp_path / "csv"])
     assert tag == "T1" and sticky and len(export.op) == 300
+
+
+def test_the_balanced_accuracys_standard_error_is_its_spread_over_draws_of_the_same_loops():
+    """``_balanced_se`` against a simple reference: the spread of the balanced accuracy over repeated draws of
+    windows whose calls are right with the shares observed."""
+    import numpy as np
+
+    from stiction.bench.detect import _rates
+
+    rng = np.random.default_rng(3)
+    truth = np.array([True] * 30 + [False] * 70)
+    draws = [
+        _rates(np.concatenate([rng.random(30) < 25 / 30, rng.random(70) < 7 / 70]), truth)["balanced"]
+        for _ in range(3000)
+    ]
+    observed = _rates(np.array([True] * 25 + [False] * 5 + [True] * 7 + [False] * 63), truth)
+    assert observed["balanced"] == pytest.approx((25 / 30 + 63 / 70) / 2)
+    assert observed["balanced_se"] == pytest.approx(np.std(draws), rel=0.15)
+    perfect = _rates(np.array([True] * 20 + [False] * 20), np.array([True] * 20 + [False] * 20))
+    assert perfect["balanced"] == 1.0 and perfect["balanced_se"] > 0.02  # 20 of 20 is not certainty
+    assert np.isnan(_rates(np.array([True, False]), np.array([True, True]))["balanced_se"])  # one class: unknown
