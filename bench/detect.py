@@ -71,12 +71,19 @@ def _settled(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, held: np.nda
     """(rates, share not settled) of the ``held`` windows: a window whose probability ``p`` leans without settling
     (``LEANS_AT`` up to ``STICTION_AT``) or whose data are not read (``blocked``: bad data) is counted neither way,
     as issue 22 defines the verdict's accuracy; its share is said beside the rates."""
-    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+    from stiction.detect.verdict import STICTION_AT
 
-    unsettled = ((p >= LEANS_AT) & (p < STICTION_AT)) | blocked
+    unsettled = _unsettled(p, blocked)
     settled = held & ~unsettled
     rates = _rates(p[settled] >= STICTION_AT, truth[settled]) | {"n": int(settled.sum())}
     return rates, float(np.mean(unsettled[held]))
+
+
+def _unsettled(p: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+    """The windows counted neither way: leaning without settling (``LEANS_AT`` up to ``STICTION_AT``) or not read."""
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+
+    return ((p >= LEANS_AT) & (p < STICTION_AT)) | blocked
 
 
 def _false_alarms(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, fault_valve: np.ndarray) -> dict:
@@ -84,9 +91,9 @@ def _false_alarms(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, fault_v
     a healthy valve (a look-alike's: the false alarm that sends a crew to a good valve) or a faulty valve whose
     window does not show its fault as the label asks (fewer than ``FAULT_EVENTS`` slips, or an effect under
     ``VISIBLE_EFFECT`` noises): {split: {"called": n, "of": m}}."""
-    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+    from stiction.detect.verdict import STICTION_AT
 
-    healthy = ~truth & ~blocked & ((p < LEANS_AT) | (p >= STICTION_AT))
+    healthy = ~truth & ~_unsettled(p, blocked)
     called = p >= STICTION_AT
     return {name: {"called": int(np.sum(called & healthy & valve)), "of": int(np.sum(healthy & valve))}
             for name, valve in (("healthy_valve", ~fault_valve), ("faulty_valve_not_shown", fault_valve))}  # fmt: skip
@@ -105,8 +112,8 @@ def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
 def _balanced_se(hits: np.ndarray, rejections: np.ndarray) -> float:
     """The standard error of a balanced accuracy, the mean of two shares (the faults called ``hits``, the healthy
     windows left alone ``rejections``) read as independent binomial shares; each share's variance taken at
-    (k + 1) / (n + 2), so that 20 of 20 does not read as certain (nan where either class has no window).  A family
-    holds 20-50 settled windows that show a fault: its balanced accuracy moves by 0.03-0.05 from seed to seed."""
+    (k + 1) / (n + 2), so that 20 of 20 does not read as certain (nan where either class has no window).  At 20 loops a
+    cause a family holds 5-35 settled windows that show a fault, and its error is 0.03-0.10 (docs/benchmarks.md)."""
     if hits.size == 0 or rejections.size == 0:
         return float("nan")
     shares = [((x.sum() + 1) / (x.size + 2), x.size) for x in (hits, rejections)]
