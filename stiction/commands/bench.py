@@ -146,6 +146,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     t.add_argument("--seed", type=int, default=2026)
     t.add_argument(
+        "--network-draws",
+        type=int,
+        metavar="N",
+        help="family draws each held-out window network is trained on (default the shipped network's, "
+        "trainer.window_net.WindowNetSettings.seeds: the bench's longest part; fewer for a quicker, "
+        "weaker look)",
+    )
+    t.add_argument(
         "--windows",
         action="store_true",
         help="with --json, every window's figures too: the held-out families' (family, cause, label), the independent "
@@ -258,9 +266,22 @@ def _detect(args) -> None:
         raise InputError(f"--loops {args.loops}: need at least 1")
     if args.samples is not None and args.samples < 100:
         raise InputError(f"--samples {args.samples}: need at least 100")
+    if args.network_draws is not None and args.network_draws < 1:
+        raise InputError(f"--network-draws {args.network_draws}: need at least 1")
     fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands, samples=args.samples,
-                       windows=args.windows)  # fmt: skip
+                       window_net=_network_settings(args.network_draws), windows=args.windows)  # fmt: skip
     _emit(args, _host(fig), print_table)
+
+
+def _network_settings(draws: int | None):
+    """The held-out window networks' settings: the shipped network's, on ``draws`` family draws if given."""
+    if draws is None:
+        return None
+    from dataclasses import replace
+
+    from stiction.trainer.window_net import WindowNetSettings
+
+    return replace(WindowNetSettings(), seeds=draws)
 
 
 def _measured(args) -> None:

@@ -170,6 +170,7 @@ def test_one_bad_file_never_stops_the_others(tmp_path, capsys):
         (["agent", "--estimate-every", "0"], "--estimate-every at least 1"),
         (["agent", "--first-window", "50"], "at least 100 samples"),
         (["bench", "detect", "--samples", "10"], "--samples 10: need at least 100"),
+        (["bench", "detect", "--network-draws", "0"], "--network-draws 0: need at least 1"),
         (["bench", "bridge", "--rate", "-1"], "--loops, --seconds and --rate must be positive"),
     ],
 )

@@ -22,3 +22,18 @@ def test_every_band_scale_and_draw_is_accepted_and_nothing_else():
                  ["bench", "sizing", "--simulator", "thesis"]):  # fmt: skip
         with pytest.raises(SystemExit):
             parser.parse_args(argv)
+
+
+def test_bench_detect_trains_its_held_out_networks_on_the_draws_asked_for_and_else_as_shipped(monkeypatch, capsys):
+    import stiction.bench.detect as bench_detect_module
+    from stiction.cli import main
+    from stiction.trainer.window_net import WindowNetSettings
+
+    asked = []
+    monkeypatch.setattr(bench_detect_module, "bench_detect", lambda *a, **k: asked.append(k["window_net"]) or {})
+    assert main(["bench", "detect", "--network-draws", "3", "--json"]) == 0
+    assert main(["bench", "detect", "--json"]) == 0
+    capsys.readouterr()
+    shipped = WindowNetSettings()
+    assert asked[0].seeds == 3 and asked[0].members == shipped.members and asked[0].epochs == shipped.epochs
+    assert asked[1] is None  # bench_detect's own default: the shipped network's settings
