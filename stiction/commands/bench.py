@@ -150,8 +150,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         metavar="N",
         help="family draws each held-out window network is trained on (default the shipped network's, "
-        "trainer.window_net.WindowNetSettings.seeds: the bench's longest part; fewer for a quicker, "
-        "weaker look)",
+        "trainer.window_net.WindowNetSettings.seeds: the bench's longest part, its time grows with them; fewer for a "
+        "quicker, weaker look)",
     )
     t.add_argument(
         "--windows",
