@@ -277,11 +277,9 @@ def _network_settings(draws: int | None):
     """The held-out window networks' settings: the shipped network's, on ``draws`` family draws if given."""
     if draws is None:
         return None
-    from dataclasses import replace
-
     from stiction.trainer.window_net import WindowNetSettings
 
-    return replace(WindowNetSettings(), seeds=draws)
+    return WindowNetSettings(seeds=draws)
 
 
 def _measured(args) -> None:

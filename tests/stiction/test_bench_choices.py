@@ -1,6 +1,6 @@
 """The bench's --bands, --draws and the sizing's --simulator name what the simulators draw: the command keeps literal
 choices (its start-up imports no simulator), so a test holds them to ``sim.plant_families.BANDS``,
-``sim.grid.DRAWS`` and ``bench.sizing.SIMULATORS``."""
+``sim.grid.DRAWS`` and ``bench.sizing.SIMULATORS``.  And --network-draws reaches the bench's window networks."""
 
 import pytest
 
