@@ -38,7 +38,7 @@ def subset(friction: Friction, idx) -> Friction:
         return x[idx] if x.ndim else x
 
     return Friction(pick(friction.fs_lbf), pick(friction.stop_lbf), pick(friction.slip_s), pick(friction.lbf_per_pct),
-                    pick(friction.slide_pct_s))  # fmt: skip
+                    pick(friction.slide_pct_s), pick(friction.tracks))  # fmt: skip
 
 
 def actuate(
@@ -55,7 +55,7 @@ def actuate(
     played = backlash(op_pct, played_pct, deadband_pct)
     target = np.where(deadband_pct > 0, played, op_pct)
     lagged = actuator_tau_s > 0
-    slip = valve_step(target, mv_pct, friction)
+    slip = valve_step(target, mv_pct, friction, drive_pct)
     mv_next, deficit, drive = slip.mv_pct, slip.deficit_pct_s, target
     if np.any(lagged):
         idx = np.flatnonzero(lagged)

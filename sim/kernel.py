@@ -78,7 +78,7 @@ def _lagged_step(p0, op, tau_s, ts_s, mv, fs_lbf, stop_lbf, slip_s, lbf_per_pct,
 
 @njit(cache=True, error_model="numpy")
 def run_loops(
-    kc, ti_s, sp, fs_lbf, stop_lbf, slip_s, lbf_per_pct, slide_pct_s, phi, gamma_now, gamma_prev, gamma_w, c, delay,
+    kc, ti_s, sp, fs_lbf, stop_lbf, slip_s, lbf_per_pct, slide_pct_s, tracks, phi, gamma_now, gamma_prev, gamma_w, c, delay,
     deadband_pct, actuator_tau_s, w, z, ts_s, x, error_sum, mv, drive, played, flow_hist, k0,
 ):  # fmt: skip
     """Every loop over every sample from the given state (updated in place, as at the end).
@@ -117,6 +117,11 @@ def run_loops(
                 jump = 0.0
                 if abs(force) > fs_lbf[i]:
                     jump = (force - np.sign(force) * stop_lbf[i]) / lbf_per_pct[i]
+                if tracks[i]:
+                    d = np.sign(target - dr)
+                    stop = stop_lbf[i] / lbf_per_pct[i]
+                    if d != 0 and abs(d * (dr - stem) - stop) <= SLIDING_TOL_PCT:
+                        jump = target - d * stop - stem
                 stem_next = stem + jump
                 deficit = jump * slip_s[i]
                 dr = target

@@ -35,7 +35,10 @@ DURATION_S = 2000.0
 WARMUP_S = 1000.0
 """Samples before this are dropped: the limit cycle is established by then (spec)."""
 
-ValveKind = Literal["physical", "he"]
+ValveKind = Literal["physical", "he", "kano"]
+VALVES = ("physical", "he", "kano")
+"""The physical valve (thesis 2.3), He et al. (2007)'s and Kano et al. (2004)'s two-parameter valves
+(``sim.valve.Friction``); fs and fd of every one in the thesis's units."""
 
 
 @dataclass(frozen=True)
@@ -62,8 +65,10 @@ class LoopSpec:
                 raise ValueError(f"process {p}: need a finite nonzero gain, a nonzero Kc and Ti > 0")
             if p.time_constant_s is not None and not p.time_constant_s > 0:
                 raise ValueError(f"process time constant must be > 0, got {p.time_constant_s}")
-        if self.valve not in ("physical", "he"):
-            raise ValueError(f"unknown valve model {self.valve!r}: expected 'physical' or 'he'")
+        if self.valve not in VALVES:
+            raise ValueError(f"unknown valve model {self.valve!r}: expected one of {', '.join(VALVES)}")
+        if self.valve == "kano" and self.extensions.actuator_tau_s > 0:
+            raise ValueError("the kano valve tracks an actuator without lag: set actuator_tau_s to 0")
         if not (np.isfinite(self.fs_pct) and np.isfinite(self.fd_pct)):
             raise ValueError("fs_pct and fd_pct must be finite")
         if not 0 <= self.fd_pct <= self.fs_pct:
@@ -130,7 +135,7 @@ def _friction(specs: Sequence[LoopSpec]) -> Friction:
     fd_lbf = pct_to_lbf([s.fd_pct for s in specs])
     physical = Friction.physical(fs_lbf, fd_lbf)
     he = Friction.he(fs_lbf / physical.lbf_per_pct, fd_lbf / physical.lbf_per_pct)
-    is_he = np.array([s.valve == "he" for s in specs])
+    is_he = np.array([s.valve in ("he", "kano") for s in specs])  # Kano's valve is He's whose stem tracks
 
     def pick(a, b):
         return np.where(is_he, np.broadcast_to(b, is_he.shape), np.broadcast_to(a, is_he.shape))
@@ -141,6 +146,7 @@ def _friction(specs: Sequence[LoopSpec]) -> Friction:
         pick(physical.slip_s, he.slip_s),
         pick(physical.lbf_per_pct, he.lbf_per_pct),
         pick(physical.slide_pct_s, he.slide_pct_s),
+        np.array([s.valve == "kano" for s in specs]),
     )
 
 
@@ -280,6 +286,7 @@ def run_batch(
     return run_loops(
         read(batch.kc), read(batch.ti_s), read(batch.sp),
         per_loop(f.fs_lbf), per_loop(f.stop_lbf), per_loop(f.slip_s), per_loop(f.lbf_per_pct), per_loop(f.slide_pct_s),
+        np.ascontiguousarray(np.broadcast_to(np.asarray(f.tracks, dtype=np.bool_), (n,))),
         read(batch.phi), read(batch.gamma_now), read(batch.gamma_prev), read(batch.gamma_w), read(batch.c),
         read(batch.delay, np.int64), read(batch.deadband_pct), read(batch.actuator_tau_s),
         read(w), read(z), float(ts_s),

@@ -220,6 +220,11 @@ class Friction:
     """A stem that breaks away behind a drive moving faster than this (% of OP a second: an actuator's lag
     moves it continuously) slides along with it instead of sticking again (``slide_speed_pct_s``); He's
     model has no such speed."""
+    tracks: np.ndarray | bool = False
+    """A stem that slipped follows its drive while the drive keeps moving the same way (Kano et al. 2004's and
+    Choudhury et al. 2005's data-driven valves: ``kano``); it sticks where the drive stops or turns.  The physical
+    and He's valves stick again at every sample.  For an actuator without lag only (the lagged valve slides by
+    ``slide_pct_s``)."""
 
     @classmethod
     def physical(cls, fs_lbf, fd_lbf, valve: ValveConstants = VALVE) -> Friction:
@@ -239,16 +244,24 @@ class Friction:
         return cls(np.asarray(fs_op_pct, float), np.asarray(fd_op_pct, float), 0.0, 1.0)
 
 
-def valve_step(drive_pct, mv_pct, friction: Friction) -> Slip:
+def valve_step(drive_pct, mv_pct, friction: Friction, last_drive_pct=None) -> Slip:
     """One interval of constant drive (vectorised over loops).
 
     A stem breaks away when ``|F| > Fs`` with ``F = 12 lbf/% * (drive - MV)``, slips
-    to where the force left is ``stop_lbf`` and sticks there.
+    to where the force left is ``stop_lbf`` and sticks there.  A valve that ``tracks`` and sits
+    ``stop_lbf`` behind ``last_drive_pct`` (the last interval's drive: it was moving) while the drive
+    moves on the same way is carried to ``stop_lbf`` behind the new drive.
     """
     force_lbf = friction.lbf_per_pct * (drive_pct - mv_pct)
     slipped = np.abs(force_lbf) > friction.fs_lbf
     end_force_lbf = np.sign(force_lbf) * friction.stop_lbf
     jump_pct = np.where(slipped, (force_lbf - end_force_lbf) / friction.lbf_per_pct, 0.0)
+    if last_drive_pct is not None and np.any(friction.tracks):
+        d = np.sign(drive_pct - last_drive_pct)
+        stop_pct = friction.stop_lbf / friction.lbf_per_pct
+        carried = friction.tracks & (d != 0) & (np.abs(d * (last_drive_pct - mv_pct) - stop_pct) <= SLIDING_TOL_PCT)
+        jump_pct = np.where(carried, drive_pct - d * stop_pct - mv_pct, jump_pct)
+        slipped = slipped | carried
     return Slip(mv_pct=mv_pct + jump_pct, deficit_pct_s=jump_pct * friction.slip_s, slipped=slipped)
 
 

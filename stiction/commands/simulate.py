@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     what.add_argument("--grid", action="store_true", help="the 1275-pattern training grid into one .npz file")
     p.add_argument("--fd-pct", type=float, help="dynamic friction, percent of 500 lbf (with --fs-pct)")
     p.add_argument("--loop", default="level", choices=["level", "concentration"])
-    p.add_argument("--valve", default="physical", choices=["physical", "he"], help="valve model")
+    p.add_argument("--valve", default="physical", choices=["physical", "he", "kano"], help="valve model")
     p.add_argument("--disturbance", choices=["sine", "gaussian", "brownian"], help="disturbance shape")
     p.add_argument("--on", dest="disturbance_on", default="output", choices=["input", "output"])
     p.add_argument("--coefficient", type=float, default=0.1, help="relative disturbance amplitude (spec)")

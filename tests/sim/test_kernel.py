@@ -35,7 +35,8 @@ def _reference(batch, w, z, state=None):
 def _mixed_loops():
     cases = case_specs()
     specs = [replace(cases[name], extensions=e, valve=valve)
-             for name in ("C2", "C8", "N3") for e in EXTENSIONS.values() for valve in ("physical", "he")]  # fmt: skip
+             for name in ("C2", "C8", "N3") for e in EXTENSIONS.values() for valve in ("physical", "he", "kano")
+             if valve != "kano" or e.actuator_tau_s == 0]  # fmt: skip
     return specs, build_batch(specs)
 
 

@@ -87,6 +87,51 @@ def test_he_model_matches_its_published_algorithm():
     np.testing.assert_allclose(got, expected)
 
 
+def _kano_reference(op, s, j):
+    """Kano et al. (2004)'s valve one sample at a time, as published: moving, the stem follows its input less
+    (S - J) / 2 while the input keeps its direction; it sticks where the input stops or turns, at u_s, and moves
+    again once the input is J beyond u_s the way it was going, or S the other way.  Starts moving upwards."""
+    y, moving, d_move, u_prev = op[0] - (s - j) / 2, True, 1.0, op[0]
+    u_s = d_s = 0.0
+    out = [y]
+    for u in op[1:]:
+        v = np.sign(u - u_prev)
+        if moving and v != d_move:
+            moving, u_s, d_s = False, u_prev, d_move
+        if not moving and (d_s * (u - u_s) > j or -d_s * (u - u_s) > s):
+            moving, d_move = True, np.sign(u - u_s)
+        if moving:
+            y = u - d_move * (s - j) / 2
+        out.append(y)
+        u_prev = u
+    return np.array(out)
+
+
+def test_kano_model_matches_its_published_algorithm():
+    """The valve that ``tracks`` (``kano``): He's fs, fd from S and J, carried along by an input that keeps moving."""
+    rng = np.random.default_rng(4)
+    op = 10.0 + np.cumsum(rng.normal(0.3, 1.0, 600))  # runs of rises and falls
+    s_pct, j_pct = 3.0, 1.0
+    expected = _kano_reference(op, s_pct, j_pct)
+    friction = Friction.he(np.array([(s_pct + j_pct) / 2]), np.array([(s_pct - j_pct) / 2]))
+    friction = Friction(friction.fs_lbf, friction.stop_lbf, friction.slip_s, friction.lbf_per_pct, tracks=True)
+    mv, drive, got = np.zeros(1), np.zeros(1), []
+    for u in op:
+        mv = valve_step(np.array([u]), mv, friction, drive).mv_pct
+        drive = np.array([u])
+        got.append(mv[0])
+    np.testing.assert_allclose(got, expected, atol=1e-9)
+    moved = np.abs(np.diff(expected)) > 0
+    assert np.sum(moved[1:] & moved[:-1]) > 50, "the input must carry the stem over runs, or the check is He's"
+    assert np.sum(~moved) > 50, "and the stem must stick where the input turns"
+    he = np.zeros(1)
+    he_path = []
+    for u in op:
+        he = valve_step(np.array([u]), he, Friction.he(friction.fs_lbf, friction.stop_lbf)).mv_pct
+        he_path.append(he[0])
+    assert np.max(np.abs(np.array(he_path) - expected)) > 0.5, "He's valve sticks again within a run: not the same"
+
+
 def test_band_and_jump_for_this_valve():
     s, j = band_and_jump_pct(60.0, 20.0)
     np.testing.assert_allclose([s, j], [400.0 / 12.0, 200.0 / 12.0])
