@@ -78,8 +78,8 @@ def _lagged_step(p0, op, tau_s, ts_s, mv, fs_lbf, stop_lbf, slip_s, lbf_per_pct,
 
 @njit(cache=True, error_model="numpy")
 def run_loops(
-    kc, ti_s, sp, fs_lbf, stop_lbf, slip_s, lbf_per_pct, slide_pct_s, tracks, phi, gamma_now, gamma_prev, gamma_w, c, delay,
-    deadband_pct, actuator_tau_s, w, z, ts_s, x, error_sum, mv, drive, played, flow_hist, k0,
+    kc, ti_s, sp, fs_lbf, stop_lbf, slip_s, lbf_per_pct, slide_pct_s, tracks, phi, gamma_now, gamma_prev, gamma_w, c,
+    delay, deadband_pct, actuator_tau_s, w, z, ts_s, x, error_sum, mv, drive, played, flow_hist, k0,
 ):  # fmt: skip
     """Every loop over every sample from the given state (updated in place, as at the end).
 
