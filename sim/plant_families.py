@@ -13,7 +13,9 @@ A family is a kind of plant loop: its process, its tuning and how its historian 
 Every family gets every cause in equal numbers.  Valve faults, in the two-parameter sense
 (Choudhury, Thornhill & Shah 2005; Kano 2004: a band S = deadband + stickband, a slip J >= 0):
 ``stick_slip`` (the physical valve), ``he`` (He et al. 2007's two-parameter valve),
-``backlash`` (a valve with backlash and no slip: S > 0, J = 0) and ``stick_backlash`` (both).
+``backlash`` (a valve with backlash and no slip: S > 0, J = 0), ``stick_backlash`` (both) and ``kano``
+(Kano et al. 2004's valve: its stem, once it slipped, follows OP while OP keeps its direction, where the
+physical and He's valves stick again at once: a jump, then a ramp with OP).
 Look-alikes: an external load that is a ``sine``, a first-order filtered ``triangle`` or
 ``square`` (the cycle of an upstream loop's sticky valve) from 2 to 60 cycles a window;
 ``tuning`` (a controller 1.5-2.5 times too aggressive for its dead time); ``quantization``
@@ -47,7 +49,7 @@ from stiction.sim.process import ProcessModel
 from stiction.sim.valve import band_and_jump_pct, friction_pct
 
 FAMILIES = ("flow", "level", "slow", "detuned")
-FAULTS = ("stick_slip", "he", "backlash", "stick_backlash")
+FAULTS = ("stick_slip", "he", "backlash", "stick_backlash", "kano")
 LOOK_ALIKES = ("sine", "triangle", "square", "tuning", "quantization", "compression", "noise")
 CAUSES = FAULTS + LOOK_ALIKES
 WINDOW_SAMPLES = 600
@@ -186,10 +188,10 @@ def family_loops(
             for _ in range(n_per_cause):
                 aggressive = float(rng.uniform(1.5, 2.5)) if cause == "tuning" else None
                 model, dead, every = _process(rng, family, aggressive)
-                fs, fd = _friction(rng, cause in ("stick_slip", "he", "stick_backlash"), bands)
+                fs, fd = _friction(rng, cause in ("stick_slip", "he", "stick_backlash", "kano"), bands)
                 backlash = float(rng.uniform(0.5, 5.0)) if cause in ("backlash", "stick_backlash") else 0.0
                 params: dict = {"dead_time_s": dead, "deadband_pct": backlash}
-                valve = "he" if cause == "he" else "physical"
+                valve = cause if cause in ("he", "kano") else "physical"
                 spec = LoopSpec(fs, fd, valve=valve, process=model, extensions=Extensions(**params),
                                 seed=int(rng.integers(2**31)), sp_pct=50.0)  # fmt: skip
                 s_pct, j_pct = (float(v) for v in band_and_jump_pct(fs, fd))

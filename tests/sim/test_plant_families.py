@@ -93,3 +93,19 @@ def test_a_stem_that_slips_under_noise_that_hides_it_is_no_fault_the_window_show
         shown.append(quiet.shows_fault)
         assert quiet.shows_fault == (quiet.stuck_events >= FAULT_EVENTS and quiet.effect_noise >= VISIBLE_EFFECT)
     assert any(shown)
+
+
+def test_kanos_stems_follow_op_between_sticks_where_hes_stick_after_every_slip():
+    """The ``kano`` cause's valve keeps moving with OP once it slipped; He's (and the physical valve) stick at
+    the end of every slip: without loads or noise, the stems' moves on consecutive samples tell them apart."""
+    runs = {}
+    for cause in ("he", "kano"):
+        loops = [loop for loop in family_loops(4, 13, bands="plant") if loop.cause == cause]
+        assert all(loop.spec.valve == cause for loop in loops)
+        w = np.zeros((len(loops), 2000))
+        _, _, mv = run_batch(build_batch([loop.spec for loop in loops]), w, np.zeros_like(w))
+        moved = np.abs(np.diff(mv[:, 1000:], axis=1)) > 1e-9
+        runs[cause] = (np.sum(moved[:, 1:] & moved[:, :-1], axis=1), moved.sum(axis=1))
+    assert np.all(runs["he"][0] == 0) and runs["he"][1].sum() > 0
+    together, moves = runs["kano"]
+    assert np.sum((moves > 10) & (together > moves / 2)) >= 4, runs["kano"]
