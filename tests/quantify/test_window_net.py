@@ -39,8 +39,9 @@ def _report(q, rec, name):
 
 
 def test_a_valve_fault_in_a_loop_that_does_not_cycle_is_found_and_its_healthy_twin_is_not(quantifier):
-    loop, sticky, healthy = _pair("flow", "stiction", 1)
-    assert sticky.shows_fault and loop.s_pct > 2.0  # the record shows it: the stem stuck and slipped
+    """A valve with 8 % of backlash and no slip (a valve fault: S > 0, J = 0) in a flow loop under a slow wander."""
+    loop, sticky, healthy = _pair("flow", "backlash", 2)
+    assert sticky.shows_fault and loop.s_pct > 2.0  # the record shows it: the stem stuck and moved
     ev = evidence(sticky.op, sticky.pv, sticky.ts_s, sticky.sp)
     assert not ev.oscillation.oscillating  # no limit cycle to read its shape
     found = _report(quantifier, sticky, "sticky")
@@ -68,27 +69,36 @@ def test_where_the_statistics_read_healthy_and_the_network_sticky_the_report_can
 
 
 def test_the_network_reads_the_loop_not_the_records_length_or_units(quantifier):
-    """The same loop over its last 600 samples and over 1,000, and with PV in engineering units."""
-    _, sticky, _ = _pair("flow", "stiction", 1)
+    """A sticky level loop (S 1.5 %, J 1.2 %, every 5 s, no regular cycle) over its last 600 samples and over 1,000,
+    and with PV in engineering units: the network reads a fault in each, the units change nothing."""
+    from stiction.quantify.predictor import sequence_probabilities
+
+    loop = [lp for lp in two_parameter.draw(12, 9090) if lp.kind == "level" and lp.cause == "stiction"][0]
+    (sticky,) = two_parameter.simulate([loop], 1000)
+    assert sticky.shows_fault and not evidence(sticky.op, sticky.pv, sticky.ts_s, sticky.sp).oscillation.oscillating
+    records = [
+        (sticky.op, sticky.pv, sticky.sp),
+        (sticky.op[-600:], sticky.pv[-600:], sticky.sp[-600:]),
+        (sticky.op, 3.0 * sticky.pv + 200.0, 3.0 * sticky.sp + 200.0),
+    ]
+    net = [sequence_probabilities(quantifier.window_net, op[None], pv[None], [sp])[0] for op, pv, sp in records]
+    assert min(net) >= 0.5, net
+    np.testing.assert_allclose(net[2], net[0], atol=1e-4)
     reports = quantifier.quantify(
-        [
-            Window("a", sticky.op, sticky.pv, sticky.ts_s, sp=sticky.sp),
-            Window("b", sticky.op[-600:], sticky.pv[-600:], sticky.ts_s, sp=sticky.sp[-600:]),
-            Window("c", sticky.op, 3.0 * sticky.pv + 200.0, sticky.ts_s, sp=3.0 * sticky.sp + 200.0),
-        ]
+        [Window(name, op, pv, sticky.ts_s, sp=sp) for name, (op, pv, sp) in zip("abc", records, strict=True)]
     )
     assert [r.verdict for r in reports] == ["stiction"] * 3
     np.testing.assert_allclose(reports[2].stiction_probability, reports[0].stiction_probability, atol=1e-4)
 
 
 def test_a_deadband_limit_cycle_the_cycle_model_misses_is_found_by_the_network_beside_it(quantifier):
-    """A detuned loop whose valve has a deadband of 3.9 % of span and no slip cycles regularly: a valve fault (the
+    """A level loop whose valve has a deadband of 4.9 % of span and no slip cycles regularly: a valve fault (the
     two-parameter S with J = 0).  The cycle model alone leans on it without calling it (0.35); the network reads OP
-    and PV as a faulty valve's and raises it, and the report says which reading found it.  Family seed 9090, which
+    and PV as a faulty valve's and raises it, and the report says which reading found it.  Family seed 9091, which
     neither the network (from seed 1000) nor the detector is trained on."""
     from stiction.sim.plant_families import family_loops, simulate_families
 
-    loop = [lp for lp in family_loops(3, 9090, bands="plant") if lp.family == "detuned" and lp.cause == "backlash"][1]
+    loop = [lp for lp in family_loops(3, 9091, bands="plant") if lp.family == "level" and lp.cause == "backlash"][1]
     (rec,) = simulate_families([loop], samples=1000)
     ev = evidence(rec.op, rec.pv, rec.ts_s, rec.sp)
     assert ev.oscillation.oscillating and rec.shows_fault and loop.j_pct == 0.0
