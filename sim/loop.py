@@ -286,7 +286,7 @@ def run_batch(
     return run_loops(
         read(batch.kc), read(batch.ti_s), read(batch.sp),
         per_loop(f.fs_lbf), per_loop(f.stop_lbf), per_loop(f.slip_s), per_loop(f.lbf_per_pct), per_loop(f.slide_pct_s),
-        np.ascontiguousarray(np.broadcast_to(np.asarray(f.tracks, dtype=np.bool_), (n,))),
+        read(np.broadcast_to(f.tracks, (n,)), np.bool_),
         read(batch.phi), read(batch.gamma_now), read(batch.gamma_prev), read(batch.gamma_w), read(batch.c),
         read(batch.delay, np.int64), read(batch.deadband_pct), read(batch.actuator_tau_s),
         read(w), read(z), float(ts_s),

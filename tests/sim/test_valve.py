@@ -1,5 +1,7 @@
 """Valve physics: stuck stems, sticking, slips, He's model, actuator lag."""
 
+from dataclasses import replace
+
 import numpy as np
 
 from stiction.sim.loop import LoopSpec, simulate
@@ -113,8 +115,7 @@ def test_kano_model_matches_its_published_algorithm():
     op = 10.0 + np.cumsum(rng.normal(0.3, 1.0, 600))  # runs of rises and falls
     s_pct, j_pct = 3.0, 1.0
     expected = _kano_reference(op, s_pct, j_pct)
-    friction = Friction.he(np.array([(s_pct + j_pct) / 2]), np.array([(s_pct - j_pct) / 2]))
-    friction = Friction(friction.fs_lbf, friction.stop_lbf, friction.slip_s, friction.lbf_per_pct, tracks=True)
+    friction = replace(Friction.he(np.array([(s_pct + j_pct) / 2]), np.array([(s_pct - j_pct) / 2])), tracks=True)
     mv, drive, got = np.zeros(1), np.zeros(1), []
     for u in op:
         mv = valve_step(np.array([u]), mv, friction, drive).mv_pct
