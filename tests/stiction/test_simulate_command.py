@@ -89,6 +89,7 @@ def test_grid_file_holds_the_training_set(tmp_path):
         (["--grid", "--out", "grid.csv"], ".npz"),
         (["--fs-pct", "20", "--fd-pct", "5", "--warmup-s", "3000"], "--warmup-s"),
         (["--fs-pct", "20", "--fd-pct", "5", "--osc-shape", "square"], "needs an external oscillation"),
+        (["--fs-pct", "20", "--fd-pct", "5", "--valve", "kano", "--actuator-tau-s", "2"], "actuator without lag"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, expected, tmp_path):
@@ -98,3 +99,15 @@ def test_bad_input_is_one_line_and_exit_2(argv, expected, tmp_path):
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0] and "Traceback" not in done.stderr
+
+
+def test_every_valve_the_loop_knows_is_a_choice_and_nothing_else():
+    """The command keeps its valve choices literal (its start-up imports no compiled loop): held to the loop's."""
+    from stiction.cli import build_parser
+    from stiction.sim.loop import VALVES
+
+    parser = build_parser()
+    for valve in VALVES:
+        assert parser.parse_args(["simulate", "--grid", "--valve", valve]).valve == valve
+    with pytest.raises(SystemExit):
+        parser.parse_args(["simulate", "--grid", "--valve", "choudhury"])
