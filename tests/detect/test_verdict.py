@@ -264,10 +264,21 @@ def test_a_probability_short_of_the_threshold_never_reads_as_the_threshold():
 
 
 
+ATOL = 0.01
+"""How far a weight (or a feature's mean or scale) of the detector this code trains may be from the shipped one's:
+half the staleness ``test_the_shipped_detector_is_the_one_this_code_trains`` was written for (0.02), above what
+another machine's instruction set moves (0.008)."""
+
+
 def test_the_shipped_detector_is_the_one_this_code_trains(tmp_path):
     """A change to the simulator or the evidence moves the detector's training windows, and a detector trained
     before it answers for code that no longer exists: the valve's slide along a lagged drive (944ebdf) moved the
-    shipped general and cycle models by up to 0.02 in a weight, unnoticed until a retrain for another reason."""
+    shipped general and cycle models by up to 0.02 in a weight, unnoticed until a retrain for another reason.
+
+    Within ``ATOL``: the same code trains slightly other weights on another instruction set (on an AMD EPYC family
+    25 model 1, without AVX-512, up to 0.008 in a weight and 0.002 in a feature's mean, against the Intel Xeon
+    family 6 model 167 the shipped detector was trained on): the simulated loops' chaos carries numpy's vectorised
+    math's last bits into the training windows."""
     import json
 
     from stiction.cli import main
@@ -285,7 +296,7 @@ def test_the_shipped_detector_is_the_one_this_code_trains(tmp_path):
                 compare(a[k], b[k], f"{path}/{k}")
         elif isinstance(a, (int, float, list)) and not (isinstance(a, list) and a and isinstance(a[0], str)):
             x, y = np.asarray(a, float), np.asarray(b, float)
-            if x.shape != y.shape or not np.allclose(x, y, rtol=1e-6, atol=1e-6):
+            if x.shape != y.shape or not np.allclose(x, y, rtol=1e-6, atol=ATOL):
                 stale.append(path)
         elif a != b:
             stale.append(path)
