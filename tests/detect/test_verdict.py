@@ -263,7 +263,6 @@ def test_a_probability_short_of_the_threshold_never_reads_as_the_threshold():
     assert short_of(0.426, STICTION_AT) == "0.43"  # rounding up below the threshold is still honest
 
 
-
 ATOL = 0.01
 """How far a weight (or a feature's mean or scale) of the detector this code trains may be from the shipped one's:
 half the staleness ``test_the_shipped_detector_is_the_one_this_code_trains`` was written for (0.02), above what
@@ -318,15 +317,18 @@ def test_the_statistics_and_the_window_network_combine_to_the_larger_unless_they
     assert p[5] == 0.3  # no network reading: the statistics'
 
 
-def test_beside_a_cycle_the_network_raises_a_call_or_unsettles_a_healthy_reading_but_never_unsettles_a_call():
-    from stiction.detect.verdict import LEANS_AT, STICTION_AT, beside_cycle
+def test_beside_a_cycle_the_network_raises_a_call_or_unsettles_one_the_cycle_model_is_not_sure_of():
+    from stiction.detect.verdict import CYCLE_SURE_AT, LEANS_AT, STICTION_AT, beside_cycle
 
-    cycle = np.array([0.8, 0.8, 0.2, 0.2, 0.6])
-    net = np.array([0.1, 0.9, 0.9, 0.1, np.nan])
+    sure, unsure = CYCLE_SURE_AT, (STICTION_AT + CYCLE_SURE_AT) / 2
+    cycle = np.array([sure, sure, 0.2, 0.2, 0.6, unsure, unsure, unsure])
+    net = np.array([0.1, 0.9, 0.9, 0.1, np.nan, 0.1, LEANS_AT, 0.9])
     p = beside_cycle(cycle, net)
-    assert p[0] == 0.8 and p[1] == 0.9  # the cycle model's call stands; the network may raise it
+    assert p[0] == sure and p[1] == 0.9  # a sure call stands whatever the network reads; the network may raise it
     assert LEANS_AT <= p[2] < STICTION_AT  # the network reads a fault the cycle model reads healthy: not settled
     assert p[3] == 0.2 and p[4] == 0.6  # agreeing healthy, or no network reading: the cycle model's
+    assert LEANS_AT <= p[5] < STICTION_AT  # an unsure call the network reads as healthy: not settled
+    assert p[6] == unsure and p[7] == 0.9  # an unsure call the network only leans against, or agrees with, stands
 
 
 def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_canonical_loops(detector):
