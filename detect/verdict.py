@@ -184,7 +184,9 @@ CYCLE_SURE_AT = 0.8
 (``beside_cycle``); below it, a call the network reads as a healthy valve is not settled.  Chosen on seed 3031's
 families held out and its independent simulator (the design seed; docs/benchmarks.md, "The network may contradict
 a cycle call the cycle model is not sure of"): of the 108 cycle calls the network read below ``LEANS_AT``, 80 were
-healthy valves: 61 of them, and 19 of the 28 faults, had the cycle model below 0.8."""
+healthy valves: 61 of them, and 19 of the 28 faults, had the cycle model below 0.8.  Judged on seed 8282 (never
+used before): every family's settled balanced accuracy up 0.008-0.023, the independent simulator level (0.869 ->
+0.867), 53 of the 63 windows it changed false alarms."""
 
 
 def beside_cycle(cycle: np.ndarray, network: np.ndarray) -> np.ndarray:
