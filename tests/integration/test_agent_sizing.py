@@ -54,8 +54,8 @@ def test_a_replayed_sticky_plant_window_gets_its_process_identified_and_s_and_j_
                 got = [x.ok for x in session.get(keys.report(PREFIX, "fic"), timeout=2) if x.ok is not None]
                 return StictionReport.model_validate_json(got[0].payload.to_bytes()) if got else None
 
-            # the sizing worker runs at lowered priority: with the test suite sharing two cores (the suite beside a
-            # bench, or two pytest workers) this test took 106 s and timed out at 120 s; alone 14 s
+            # the sizing worker runs at lowered priority: alone this test takes 14 s, in the suite beside a bench 106 s,
+            # and with two pytest workers beside a bench it timed out at 120 s
             wait_until(lambda: (latest() or published[0]).method == "identified", 300, "the sized latest report")
             r = latest()
             assert r.verdict == "stiction" and r.process.source == "identified" and r.process.description
