@@ -269,6 +269,7 @@ half the staleness ``test_the_shipped_detector_is_the_one_this_code_trains`` was
 another machine's instruction set moves (0.008)."""
 
 
+@pytest.mark.slow
 def test_the_shipped_detector_is_the_one_this_code_trains(tmp_path):
     """A change to the simulator or the evidence moves the detector's training windows, and a detector trained
     before it answers for code that no longer exists: the valve's slide along a lagged drive (944ebdf) moved the

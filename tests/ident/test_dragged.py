@@ -1,6 +1,7 @@
 """A band is read from when a stuck stem moves.  Where no slip shows in PV and the model's valve moves at most
 samples, there is no stuck phase to read it from, and the report withholds it (``ident.trust.dragged``)."""
 
+import pytest
 
 from stiction.ident.report import diagnose_loop
 from stiction.ident.trust import DRAGGED_SHARE, dragged
@@ -16,6 +17,7 @@ def test_a_valve_moving_at_most_samples_with_no_slip_in_pv_has_no_band_to_give()
     assert dragged(1, 2000, 2000) is None  # a slip the data show: the band has a bracket
 
 
+@pytest.mark.slow
 def test_a_backlash_valve_read_as_a_dragged_stem_is_withheld_not_given_twenty_times_short():
     # the independent simulator's flow loop (Choudhury's valve, S 1.19 % and no slip J: a backlash) sampled every 2 s:
     # the physical valve's fit read no slip in PV, moved its stem at 1376 of 2000 samples and gave S 0.06 +- 0.02 %

@@ -32,6 +32,7 @@ def _diagnosed(op, pv, ts_s):
     return record, d, diagnosis_report("loop", record, d)
 
 
+@pytest.mark.slow
 def test_a_loop_driven_by_its_valve_is_explained_and_a_pv_its_op_does_not_drive_is_not(loops):
     op, pv, ts_s = loops
     record, d, own = _diagnosed(op[0], pv[0], ts_s)

@@ -18,6 +18,7 @@ from tests.measured import PLANT
 PREFIX = "test/sizing"
 
 
+@pytest.mark.slow
 def test_a_replayed_sticky_plant_window_gets_its_process_identified_and_s_and_j_published(tmp_path):
     files = sorted(PLANT.glob("stic_2411FIC20102_1016_*.csv")) if PLANT.is_dir() else []
     if not files:

@@ -28,6 +28,7 @@ LOOPS = 6
 SPEED = 10  # a sample every 0.1 s
 
 
+@pytest.mark.slow
 def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
     endpoint = zenoh_session.free_loopback_endpoint()
     opc = f"opc.tcp://127.0.0.1:{zenoh_session.free_loopback_port()}"

@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from stiction.quantify.pipeline import Quantifier, Window
 from stiction.schemas.model_card import ModelCard
@@ -12,6 +13,7 @@ from stiction.trainer.train import TrainSettings, run
 from stiction.trainer.window_net import WindowNetSettings
 
 
+@pytest.mark.slow
 def test_small_training_run_writes_models_the_agent_loads(tmp_path: Path):
     settings = TrainSettings(
         models_dir=tmp_path,
