@@ -1,5 +1,5 @@
-"""The suite's order: the files that hold a test marked ``slow`` (a minute or more on the slowest two-core machine
-here) run first.
+"""The suite's order: the files that hold a test marked ``slow`` (half a minute or more on the slowest two-core
+machine here, a minute or more with a bench beside it) run first.
 
 ``bash scripts/test`` runs two workers that take a file at a time (``--dist loadfile``), in this order
 (``--no-loadscope-reorder``; pytest-xdist's own order puts the files with most tests first, which left the two one-
