@@ -226,6 +226,29 @@ class LoopState:
         zeros = np.zeros(n)
         return cls(np.zeros((n, 2)), zeros, zeros, zeros, zeros, np.zeros((n, int(batch.delay.max()) + 2)))
 
+    @classmethod
+    def at_operating_point(
+        cls, batch: Batch, specs: Sequence[LoopSpec], load_pct: np.ndarray, ts_s: float = TS_S
+    ) -> LoopState:
+        """Every loop settled at its setpoint under a constant load ``load_pct`` (one per loop, in the units of
+        ``w``): the plant's states where its output reads SP, the stem (and the deadband's play and the actuator's
+        drive) where it holds the plant there, and the controller's integral where OP asks for that stem.  A plant
+        loop recorded in operation, not started empty: from rest, a controller 3-20 times slower than its process
+        asks (``sim.plant_families``'s detuned family) was still climbing from 0 to SP after a window's warm-up."""
+        n = batch.kc.size
+        x, mv = np.zeros((n, 2)), np.zeros(n)
+        for i, s in enumerate(specs):
+            e = s.extensions
+            A, B, C = continuous_plant(s.model, e.gain_ratio, e.time_constant_s, e.sensor_tau_s)
+            # A x + B u = 0 (at rest), C x = SP; least squares picks 0 for a state the output does not read
+            m = np.zeros((3, 3))
+            m[:2, :2], m[:2, 2], m[2, :2] = A, B, C
+            z = np.linalg.lstsq(m, np.array([0.0, 0.0, batch.sp[i]]), rcond=None)[0]
+            x[i], mv[i] = z[:2], z[2] - load_pct[i]
+        error_sum = mv * batch.ti_s / (batch.kc * ts_s)  # OP = Kc (0 + Ts/Ti sum e) = the stem's position
+        flow_hist = np.repeat(mv[:, None], int(batch.delay.max()) + 2, axis=1)
+        return cls(x, error_sum, mv.copy(), mv.copy(), mv.copy(), flow_hist)
+
 
 def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S):
     """One sample of every loop: returns ``(next_state, op, pv)`` for sample ``state.k``.

@@ -76,6 +76,26 @@ def test_a_record_continues_from_a_given_state():
     )
 
 
+def test_a_loop_started_at_its_operating_point_stays_there_without_loads():
+    """Every kind of loop (integrating and self-regulating, dead time, deadband, actuator lag, sensor lag; every
+    valve) started at its operating point under a constant load reads its setpoint at every sample and its stem
+    never moves, in the definition (``advance``) and the compiled record alike; from rest the same loops move."""
+    specs, batch = _mixed_loops()
+    specs = [replace(s, sp_pct=40.0) for s in specs]
+    batch = build_batch(specs)
+    load = np.linspace(-2.0, 2.0, len(specs))
+    w, z = np.repeat(load[:, None], 200, axis=1), np.zeros((len(specs), 200))
+    state = LoopState.at_operating_point(batch, specs, load)
+    (op_ref, pv_ref, mv_ref), _ = _reference(batch, w, z, state)
+    op, pv, mv = run_batch(batch, w, z, state=state)
+    for got in (pv, pv_ref):
+        np.testing.assert_allclose(got, 40.0, rtol=0, atol=1e-9)
+    for got in (mv, mv_ref, op, op_ref):
+        np.testing.assert_allclose(got, np.broadcast_to(got[:, :1], got.shape), rtol=0, atol=1e-9)
+    _, pv_rest, _ = run_batch(batch, w, z)
+    assert np.all(np.ptp(pv_rest, axis=1) > 1.0)
+
+
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_a_non_finite_load_stays_in_its_own_loop(bad):
     specs, batch = _mixed_loops()
