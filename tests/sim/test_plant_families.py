@@ -111,13 +111,20 @@ def test_kanos_stems_follow_op_between_sticks_where_hes_stick_after_every_slip()
     assert np.sum((moves > 10) & (together > moves / 2)) >= 4, runs["kano"]
 
 
-def test_a_detuned_loop_is_recorded_in_operation_not_climbing_from_rest():
+def test_a_detuned_loop_started_at_its_operating_point_is_recorded_in_operation_where_from_rest_it_climbs():
     """A controller 3-20 times slower than its process asks takes many windows to bring a loop from rest to its
-    setpoint; the families' loops start at their operating point, so that a detuned loop's window is the loop in
-    operation (from rest, over half of them were still more than 3 % of span below SP at the window's start)."""
+    setpoint: from rest (the shipped models' training), most detuned windows still climb towards SP; started at
+    their operating point, every one is recorded in operation around it."""
     loops = [loop for loop in family_loops(4, 17, ("detuned",), bands="plant") if loop.cause in ("noise", "sine")]
-    records = simulate_families(loops)
-    off = np.array([abs(np.mean(r.pv[:100] - r.sp[:100])) for r in records])
-    spans = np.array([np.ptp(r.pv) for r in records])
+    at_sp = simulate_families(loops, start="operating_point")
+    off = np.array([abs(np.mean(r.pv[:100] - r.sp[:100])) for r in at_sp])
     assert np.all(off < 3.0), off
-    assert np.all(spans < 20.0), spans
+    assert np.all(np.array([np.ptp(r.pv) for r in at_sp]) < 20.0)
+    from_rest = simulate_families(loops)
+    off_rest = np.array([abs(np.mean(r.pv[:100] - r.sp[:100])) for r in from_rest])
+    assert np.mean(off_rest > 3.0) > 0.5, off_rest
+
+
+def test_an_unknown_start_is_named():
+    with pytest.raises(ValueError, match="start 'cold'"):
+        simulate_families(family_loops(1, 1, ("flow",)), start="cold")
