@@ -98,7 +98,9 @@ def test_plant_bridge_agent_survive_a_server_restart(tmp_path):
             assert first.partial and first.n_samples >= 100 and first.process.sample_time_s == pytest.approx(0.1)
             wait_until(lambda: health["bridge"] and health["bridge"][-1]["loops_missing"], 10, "the missing loop named")
             assert "no-such-loop" in health["bridge"][-1]["loops_missing"]["broken"]
-            assert health["bridge"][-1]["loops_publishing"] == LOOPS
+            # every served loop publishes; plant-00000's PV is bad for a sample every 4 s, and a health message whose
+            # interval held only that sample counts it out (seen once, in a full suite run on 2026-11-30)
+            wait_until(lambda: health["bridge"][-1]["loops_publishing"] == LOOPS, 10, "every served loop publishing")
             wait_until(lambda: health["bridge"][-1]["dropped"].get("bad_status", 0) >= 1, 10, "a bad status counted")
 
             procs["plant"].send_signal(signal.SIGTERM)  # the server goes away ...
