@@ -234,7 +234,8 @@ class LoopState:
         ``w``): the plant's states where its output reads SP, the stem (and the deadband's play and the actuator's
         drive) where it holds the plant there, and the controller's integral where OP asks for that stem.  A plant
         loop recorded in operation, not started empty: from rest, a controller 3-20 times slower than its process
-        asks (``sim.plant_families``'s detuned family) was still climbing from 0 to SP after a window's warm-up."""
+        asks (``sim.plant_families``'s detuned family) is still climbing from 0 to SP after a window's warm-up
+        (``simulate_families(start=...)``)."""
         n = batch.kc.size
         x, mv = np.zeros((n, 2)), np.zeros(n)
         for i, s in enumerate(specs):
