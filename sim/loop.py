@@ -227,9 +227,7 @@ class LoopState:
         return cls(np.zeros((n, 2)), zeros, zeros, zeros, zeros, np.zeros((n, int(batch.delay.max()) + 2)))
 
     @classmethod
-    def at_operating_point(
-        cls, batch: Batch, specs: Sequence[LoopSpec], load_pct: np.ndarray, ts_s: float = TS_S
-    ) -> LoopState:
+    def at_operating_point(cls, batch: Batch, load_pct: np.ndarray, ts_s: float = TS_S) -> LoopState:
         """Every loop settled at its setpoint under a constant load ``load_pct`` (one per loop, in the units of
         ``w``): the plant's states where its output reads SP, the stem (and the deadband's play and the actuator's
         drive) where it holds the plant there, and the controller's integral where OP asks for that stem.  A plant
@@ -238,12 +236,15 @@ class LoopState:
         (``simulate_families(start=...)``)."""
         n = batch.kc.size
         x, mv = np.zeros((n, 2)), np.zeros(n)
-        for i, s in enumerate(specs):
-            e = s.extensions
-            A, B, C = continuous_plant(s.model, e.gain_ratio, e.time_constant_s, e.sensor_tau_s)
-            # A x + B u = 0 (at rest), C x = SP; least squares picks 0 for a state the output does not read
+        for i in range(n):
+            # the discretised plant at rest, x = Phi x + (Gamma_now + Gamma_prev) u, and c x = SP; least squares
+            # picks 0 for a state the output does not read (an integrating plant's unused sensor state)
             m = np.zeros((3, 3))
-            m[:2, :2], m[:2, 2], m[2, :2] = A, B, C
+            m[:2, :2], m[:2, 2], m[2, :2] = (
+                batch.phi[i] - np.eye(2),
+                batch.gamma_now[i] + batch.gamma_prev[i],
+                batch.c[i],
+            )
             z = np.linalg.lstsq(m, np.array([0.0, 0.0, batch.sp[i]]), rcond=None)[0]
             x[i], mv[i] = z[:2], z[2] - load_pct[i]
         error_sum = mv * batch.ti_s / (batch.kc * ts_s)  # OP = Kc (0 + Ts/Ti sum e) = the stem's position

@@ -317,7 +317,7 @@ def simulate_families(
         noise, loads = z - moves, np.vstack([w, w[faults]])
         batch = build_batch(specs)
         # "operating_point": in operation from the first sample, settled at SP under the load's first value
-        state = LoopState.at_operating_point(batch, specs, loads[:, 0]) if start == "operating_point" else None
+        state = LoopState.at_operating_point(batch, loads[:, 0]) if start == "operating_point" else None
         op, pv_plant, mv = run_batch(batch, loads, np.vstack([noise, noise[faults]]), state=state)
         twin_pv = dict(zip(faults, pv_plant[len(idx) :], strict=True))
         op, pv_plant, mv = op[: len(idx)], pv_plant[: len(idx)], mv[: len(idx)]

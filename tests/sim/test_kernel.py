@@ -80,12 +80,11 @@ def test_a_loop_started_at_its_operating_point_stays_there_without_loads():
     """Every kind of loop (integrating and self-regulating, dead time, deadband, actuator lag, sensor lag; every
     valve) started at its operating point under a constant load reads its setpoint at every sample and its stem
     never moves, in the definition (``advance``) and the compiled record alike; from rest the same loops move."""
-    specs, batch = _mixed_loops()
-    specs = [replace(s, sp_pct=40.0) for s in specs]
+    specs = [replace(s, sp_pct=40.0) for s in _mixed_loops()[0]]
     batch = build_batch(specs)
     load = np.linspace(-2.0, 2.0, len(specs))
     w, z = np.repeat(load[:, None], 200, axis=1), np.zeros((len(specs), 200))
-    state = LoopState.at_operating_point(batch, specs, load)
+    state = LoopState.at_operating_point(batch, load)
     (op_ref, pv_ref, mv_ref), _ = _reference(batch, w, z, state)
     op, pv, mv = run_batch(batch, w, z, state=state)
     for got in (pv, pv_ref):
