@@ -389,15 +389,21 @@ class AgentCore:
         except (ValueError, AttributeError):
             return
         if isinstance(t_end_s, int | float):
-            t_end_s = max(self.reported_to_s.get(loop_id, -math.inf), float(t_end_s))
-            self.reported_to_s[loop_id] = t_end_s
-            state = self.loops.get(loop_id)
-            if state is not None:
-                state.reported_to_s = t_end_s
+            self._reported_to(loop_id, float(t_end_s))
 
-    def reported(self, loop_id: str, verdict: str, reading: Reading | None) -> None:
-        """A report went out: keep its fresh friction reading, count a carried one, or drop the
-        loop's reading once it is no longer called sticky."""
+    def _reported_to(self, loop_id: str, t_end_s: float) -> None:
+        t_end_s = max(self.reported_to_s.get(loop_id, -math.inf), t_end_s)
+        self.reported_to_s[loop_id] = t_end_s
+        state = self.loops.get(loop_id)
+        if state is not None:
+            state.reported_to_s = t_end_s
+
+    def reported(self, loop_id: str, verdict: str, reading: Reading | None, t_end_s: float | None = None) -> None:
+        """A report went out (of the window ending at ``t_end_s``): keep its fresh friction reading, count a
+        carried one, or drop the loop's reading once it is no longer called sticky.  The window's end is kept as
+        a report seen on the key space is (``seen_report``): the service does not hear its own reports back."""
+        if t_end_s is not None:
+            self._reported_to(loop_id, t_end_s)
         state = self.loops.get(loop_id)
         if state is None:
             return

@@ -314,6 +314,36 @@ def test_a_replica_taking_over_late_does_not_report_a_window_the_dead_owner_had_
     b.seen_report(f"stiction/demo/loop/{loop}/report", b"not json")  # ignored, never raised
 
 
+def test_an_agent_that_gets_a_loop_back_does_not_report_again_what_it_had_reported_itself():
+    """The service does not hear its own reports back from the key space: ``reported`` keeps their ends, so a
+    loop that leaves for a joining agent and comes back, its history merged again, resumes after the last report
+    this agent made (not from the start of the history)."""
+    a = AgentCore("a", CoreSettings(window_samples=100, report_every_samples=20, stagger=False))
+    loop = next(f"L{i}" for i in range(100) if AgentCore("a").owns(f"L{i}"))
+    key = _sharded_key(loop)
+    for seq in range(0, 100, 10):
+        a.ingest(key, _payload(seq, loop_id=loop), JSON, float(seq))
+    ((window, _),) = _due(a)
+    a.reported(loop, "stiction", None, window.t_end_s)
+    b_owns = next(agent for agent in (f"b{i}" for i in range(100)) if not _with(agent).owns(loop))
+    a.set_agents({"a", b_owns})
+    a.set_agents({"a"})  # the shard went to the other agent, which died before reporting it
+    assert loop not in a.loops
+    a.ingest(key, _payload(0, n=110, loop_id=loop), JSON, 200.0, history=True)  # the publisher's last 110 samples
+    assert a.reported_to_s[loop] == window.t_end_s
+    assert _due(a) == []  # 10 samples after its own last report: not due (every 20)
+    a.ingest(key, _payload(110, loop_id=loop), JSON, 210.0)
+    ((later, _),) = _due(a)
+    assert later.t_end_s == window.t_end_s + 20  # the next interval, on the schedule
+
+
+def _with(other):
+    """A core of agent ``a`` beside ``other``: who owns what once both are alive."""
+    core = AgentCore("a")
+    core.set_agents({"a", other})
+    return core
+
+
 def _reference_owner(agents, shard):
     """Plain rendezvous hashing, no cap: the agent ranking first for the shard."""
     from stiction.agent.ownership import rank
