@@ -29,6 +29,7 @@ Choudhury's bicoherence test (nonlinear and oscillating), and He et al.'s shape 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -128,13 +129,14 @@ def _share_called(faults: np.ndarray, called: np.ndarray, cycling: np.ndarray) -
             "cycling": float(np.mean(cycling[faults]))}  # fmt: skip
 
 
-def _family_set(n_per_cause: int, seed: int, bands: str, samples: int | None = None):
+def _family_set(n_per_cause: int, seed: int, bands: str, samples: int | None = None, start: str = "rest"):
     from stiction.detect.features import evidence
     from stiction.sim.plant_families import WINDOW_SAMPLES, family_loops, simulate_families, stable
 
     loops = family_loops(n_per_cause, seed, bands=bands)
     rows = []
-    for loop, rec in zip(loops, simulate_families(loops, samples=samples or WINDOW_SAMPLES), strict=True):
+    records = simulate_families(loops, samples=samples or WINDOW_SAMPLES, start=start)
+    for loop, rec in zip(loops, records, strict=True):
         if stable(rec):
             rows.append((loop, rec, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), _blocked(rec.op, rec.pv)))
     return rows
@@ -223,6 +225,8 @@ def bench_detect(
     samples: int | None = None,
     window_net=None,
     windows: bool = False,
+    start: str = "rest",
+    train_start: str = "rest",
 ) -> dict:
     """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
     network's); ``windows``: add every held-out family window's figures, the independent simulator's and the
@@ -232,7 +236,8 @@ def bench_detect(
     judged records' length (default the training windows', ``sim.plant_families.WINDOW_SAMPLES``: the same
     loops recorded longer, as exports and the agent's windows hold them).  The detectors
     are trained as the shipped one is, on the thesis's bands: judged on plant-scale bands, the figures say
-    how the verdict carries to valves smaller than it was trained on."""
+    how the verdict carries to valves smaller than it was trained on.  ``start``: where the judged families' loops
+    start, ``train_start`` the training families' (``sim.plant_families.START``; the shipped models' from rest)."""
     from stiction.bench.measured import labelled_exports
     from stiction.detect import training
     from stiction.detect.features import evidence
@@ -241,11 +246,12 @@ def bench_detect(
 
     t0 = time.perf_counter()
     exports = labelled_exports(measured)  # first: a folder without labelled exports is named before a minute's work
-    sim = training.simulated_set(train_per_class, SIM_SEED)
-    out: dict = {"bands": bands, "samples": samples, "families": {}, "measured": {}}
+    sim = training.simulated_set(train_per_class, SIM_SEED, start=train_start)
+    out: dict = {"bands": bands, "samples": samples, "start": start, "train_start": train_start, "families": {},
+                 "measured": {}}  # fmt: skip
 
     t1 = time.perf_counter()
-    rows = _family_set(n_per_class, seed, bands, samples)
+    rows = _family_set(n_per_class, seed, bands, samples, start)
     out["seconds_per_window"] = (time.perf_counter() - t1) / max(len(rows), 1)
     family = np.array([r[0].family for r in rows])
     truth = np.array([r[1].shows_fault for r in rows])
@@ -254,7 +260,7 @@ def bench_detect(
     osc = np.array([r[2].oscillation.oscillating for r in rows])
     from stiction.trainer import window_net as wn
 
-    settings = window_net or wn.WindowNetSettings()
+    settings = replace(window_net or wn.WindowNetSettings(), start=train_start)
     t2 = time.perf_counter()
     net_windows = wn.family_windows(settings)
     out["window_net"] = {"windows": int(len(net_windows.shows_fault)), "simulate_s": time.perf_counter() - t2}

@@ -95,16 +95,19 @@ class SimulatedSet:
                             self.oscillating[keep], self.bands[keep])  # fmt: skip
 
 
-def simulated_set(n_per_cause: int, seed: int, families: tuple[str, ...] = FAMILIES) -> SimulatedSet:
+def simulated_set(
+    n_per_cause: int, seed: int, families: tuple[str, ...] = FAMILIES, start: str = "rest"
+) -> SimulatedSet:
     """The family loops (``n_per_cause`` of every cause in every family) at the thesis's bands (seed
     ``seed``) and ``PLANT_SHARE`` times as many at plant scale (seed ``seed + PLANT_SEED_OFFSET``),
     and ``2 * THESIS_SHARE * n_per_cause`` canonical (thesis) sticky loops, half of them noise-free
-    (the thesis's own loop is recognised as sticky without flags)."""
+    (the thesis's own loop is recognised as sticky without flags).  ``start``: where the families' loops start
+    (``sim.plant_families.START``; the shipped detector's from rest)."""
     evs, classes, family, bands = [], [], [], []
     plant_per_cause = max(1, round(PLANT_SHARE * n_per_cause))
     for scale, scale_seed, n in (("thesis", seed, n_per_cause), ("plant", seed + PLANT_SEED_OFFSET, plant_per_cause)):
         loops = family_loops(n, scale_seed, families, bands=scale)
-        for loop, rec in zip(loops, simulate_families(loops), strict=True):
+        for loop, rec in zip(loops, simulate_families(loops, start=start), strict=True):
             if stable(rec):
                 evs.append(evidence(rec.op, rec.pv, rec.ts_s, rec.sp))
                 classes.append("stiction" if rec.stem_slipped else LOOK_ALIKE_CLASS.get(loop.cause, "noise"))

@@ -251,6 +251,16 @@ class LoopState:
         flow_hist = np.repeat(mv[:, None], int(batch.delay.max()) + 2, axis=1)
         return cls(x, error_sum, mv.copy(), mv.copy(), mv.copy(), flow_hist)
 
+    def where(self, rows: np.ndarray) -> LoopState:
+        """This state in the loops of ``rows`` (bool, one per loop), the others at rest (``at_rest``)."""
+        rows = np.asarray(rows, bool)
+        fields = (self.x, self.error_sum, self.mv, self.drive, self.played, self.flow_hist)
+        return LoopState(*(_rows_or_rest(a, rows) for a in fields), k=self.k)
+
+
+def _rows_or_rest(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    return np.where(rows.reshape((-1,) + (1,) * (a.ndim - 1)), a, 0.0)
+
 
 def advance(batch: Batch, state: LoopState, w: np.ndarray, z: np.ndarray, ts_s: float = TS_S):
     """One sample of every loop: returns ``(next_state, op, pv)`` for sample ``state.k``.

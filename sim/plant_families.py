@@ -286,8 +286,17 @@ def effect_noise(pv: np.ndarray, healthy_pv: np.ndarray, noise_pct: float) -> fl
     return float(np.sqrt(np.mean((pv - healthy_pv) ** 2)) / max(noise_pct, 1e-12))
 
 
-START = ("rest", "operating_point")
-"""Where the families' loops start (``simulate_families``): from rest, or settled at their setpoint."""
+START = ("rest", "operating_point", "both")
+"""Where the families' loops start (``simulate_families``): from rest, settled at their setpoint, or every other loop
+(odd places in the list) settled and the others from rest."""
+
+
+def in_operation(n_loops: int, start: str) -> np.ndarray:
+    """Which of ``n_loops`` loops start settled at their setpoint under ``start`` (``START``)."""
+    if start not in START:
+        raise ValueError(f"start {start!r}: one of {', '.join(START)}")
+    at = np.arange(n_loops)
+    return at >= 0 if start == "operating_point" else (at % 2 == 1) if start == "both" else at < 0
 
 
 def simulate_families(
@@ -296,9 +305,8 @@ def simulate_families(
     """Each loop's recorded window (``samples`` samples after a warm-up of ``warmup_windows`` times
     ``WINDOW_SAMPLES``) and its label.  The loops are the same at any ``samples`` (their loads' periods
     were drawn for ``WINDOW_SAMPLES``): a longer record of the same loop, as an export holds.  ``start``: from
-    ``"rest"`` or at each loop's ``"operating_point"`` (``START``)."""
-    if start not in START:
-        raise ValueError(f"start {start!r}: one of {', '.join(START)}")
+    ``"rest"``, at each loop's ``"operating_point"``, or ``"both"`` (``START``, ``in_operation``)."""
+    settled = in_operation(len(loops), start)
     out: list = [None] * len(loops)
     for every, idx in by_sample_interval(loops).items():
         n = int((samples + WINDOW_SAMPLES * warmup_windows) * every)
@@ -316,8 +324,9 @@ def simulate_families(
         specs = [loops[i].spec for i in idx] + [healthy(loops[idx[row]].spec) for row in faults]
         noise, loads = z - moves, np.vstack([w, w[faults]])
         batch = build_batch(specs)
-        # "operating_point": in operation from the first sample, settled at SP under the load's first value
-        state = LoopState.at_operating_point(batch, loads[:, 0]) if start == "operating_point" else None
+        # in operation from the first sample, settled at SP under the load's first value; a twin as its loop
+        rows_settled = settled[np.concatenate([idx, [idx[row] for row in faults]]).astype(int)]
+        state = LoopState.at_operating_point(batch, loads[:, 0]).where(rows_settled) if rows_settled.any() else None
         op, pv_plant, mv = run_batch(batch, loads, np.vstack([noise, noise[faults]]), state=state)
         twin_pv = dict(zip(faults, pv_plant[len(idx) :], strict=True))
         op, pv_plant, mv = op[: len(idx)], pv_plant[: len(idx)], mv[: len(idx)]

@@ -9,6 +9,9 @@ from pathlib import Path
 
 from stiction.schemas.errors import InputError
 
+FAMILY_STARTS = ("rest", "operating_point", "both")
+"""``sim.plant_families.START``, named here so that the parser is built without the simulator's imports."""
+
 
 def _plain(x):
     """numpy scalars and arrays as JSON's numbers and lists."""
@@ -172,6 +175,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="length of the held-out records (default 600, the training windows'): the same loops recorded longer",
     )
+    t.add_argument(
+        "--start",
+        choices=FAMILY_STARTS,
+        default="rest",
+        help="where the judged families' loops start: from rest (after a window's warm-up), settled at their "
+        "setpoint (loops in operation, as a plant's are), or every other loop each way",
+    )
+    t.add_argument(
+        "--train-start",
+        choices=FAMILY_STARTS,
+        default="rest",
+        help="the same for the families the held-out detectors and networks are trained on (the shipped: rest)",
+    )
     t.add_argument("--json", action="store_true")
     z = sub.add_parser("sizing", help="S and J on simulated plant-like sticky loops, as quantify reports them")
     z.add_argument("--loops", type=int, default=60, help="simulated plant-like loops per class (the sticky ones run)")
@@ -269,7 +285,8 @@ def _detect(args) -> None:
     if args.network_draws is not None and args.network_draws < 1:
         raise InputError(f"--network-draws {args.network_draws}: need at least 1")
     fig = bench_detect(args.measured, n_per_class=args.loops, seed=args.seed, bands=args.bands, samples=args.samples,
-                       window_net=_network_settings(args.network_draws), windows=args.windows)  # fmt: skip
+                       window_net=_network_settings(args.network_draws), windows=args.windows, start=args.start,
+                       train_start=args.train_start)  # fmt: skip
     _emit(args, _host(fig), print_table)
 
 

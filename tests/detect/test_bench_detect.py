@@ -9,8 +9,9 @@ from stiction.trainer.window_net import WindowNetSettings
 
 def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_published_tests(capsys, plant_dir):
     tiny = WindowNetSettings(seeds=1, n_per_cause=1, members=1, epochs=1)
-    fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2, window_net=tiny, windows=True)
-    assert fig["window_net"]["windows"] > 0
+    fig = bench_detect([plant_dir], n_per_class=1, seed=2026, train_per_class=2, window_net=tiny, windows=True,
+                       start="operating_point", train_start="both")  # fmt: skip
+    assert fig["window_net"]["windows"] > 0 and (fig["start"], fig["train_start"]) == ("operating_point", "both")
     assert set(fig["families"]) == set(FAMILIES) and fig["bands"] == "plant"
     for row in fig["families"].values():
         for m in METHODS:

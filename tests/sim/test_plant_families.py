@@ -125,6 +125,21 @@ def test_a_detuned_loop_started_at_its_operating_point_is_recorded_in_operation_
     assert np.mean(off_rest > 3.0) > 0.5, off_rest
 
 
+def test_both_starts_give_every_other_loop_as_it_runs_settled_and_the_others_as_from_rest():
+    """The mixed start against the two plain ones run on their own (a simple reference): each loop's record, and the
+    effect its fault had on PV against the healthy twin, is the one its own start gives."""
+    loops = family_loops(3, 23, ("detuned", "flow"), bands="plant")
+    loops = [loop for loop in loops if loop.cause in ("noise", "sine")]
+    loops += [loop for loop in family_loops(2, 29, ("level",), bands="plant") if loop.fault][:4]
+    mixed = simulate_families(loops, start="both")
+    plain = {start: simulate_families(loops, start=start) for start in ("rest", "operating_point")}
+    for i, rec in enumerate(mixed):
+        ref = plain["operating_point" if i % 2 else "rest"][i]
+        np.testing.assert_array_equal(rec.op, ref.op)
+        np.testing.assert_array_equal(rec.pv, ref.pv)
+        assert (rec.stuck_events, rec.effect_noise) == (ref.stuck_events, ref.effect_noise)
+
+
 def test_an_unknown_start_is_named():
     with pytest.raises(ValueError, match="start 'cold'"):
         simulate_families(family_loops(1, 1, ("flow",)), start="cold")

@@ -1,25 +1,29 @@
-"""The bench's --bands, --draws and the sizing's --simulator name what the simulators draw: the command keeps literal
-choices (its start-up imports no simulator), so a test holds them to ``sim.plant_families.BANDS``,
-``sim.grid.DRAWS`` and ``bench.sizing.SIMULATORS``.  And --network-draws reaches the bench's window networks."""
+"""The bench's --bands, --start, --train-start, --draws and the sizing's --simulator name what the simulators draw:
+the command keeps literal choices (its start-up imports no simulator), so a test holds them to
+``sim.plant_families.BANDS`` and ``START``, ``sim.grid.DRAWS`` and ``bench.sizing.SIMULATORS``.  And
+--network-draws and the starts reach the bench."""
 
 import pytest
 
 from stiction.bench.sizing import SIMULATORS
 from stiction.cli import build_parser
 from stiction.sim.grid import DRAWS
-from stiction.sim.plant_families import BANDS
+from stiction.sim.plant_families import BANDS, START
 
 
 def test_every_band_scale_and_draw_is_accepted_and_nothing_else():
     parser = build_parser()
     for bands in BANDS:
         assert parser.parse_args(["bench", "detect", "--bands", bands]).bands == bands
+    for start in START:
+        args = parser.parse_args(["bench", "detect", "--start", start, "--train-start", start])
+        assert (args.start, args.train_start) == (start, start)
     for draws in DRAWS:
         assert parser.parse_args(["bench", "diagnose", "--draws", draws]).draws == draws
     for simulator in SIMULATORS:
         assert parser.parse_args(["bench", "sizing", "--simulator", simulator]).simulator == simulator
     for argv in (["bench", "detect", "--bands", "huge"], ["bench", "diagnose", "--draws", "narrow"],
-                 ["bench", "sizing", "--simulator", "thesis"]):  # fmt: skip
+                 ["bench", "sizing", "--simulator", "thesis"], ["bench", "detect", "--start", "cold"]):  # fmt: skip
         with pytest.raises(SystemExit):
             parser.parse_args(argv)
 
@@ -29,11 +33,17 @@ def test_bench_detect_trains_its_held_out_networks_on_the_draws_asked_for_and_el
     from stiction.cli import main
     from stiction.trainer.window_net import WindowNetSettings
 
-    asked = []
-    monkeypatch.setattr(bench_detect_module, "bench_detect", lambda *a, **k: asked.append(k["window_net"]) or {})
-    assert main(["bench", "detect", "--network-draws", "3", "--json"]) == 0
-    assert main(["bench", "detect", "--json"]) == 0
+    asked, starts = [], []
+
+    def bench(*a, **k):
+        starts.append((k["start"], k["train_start"]))
+        return asked.append(k["window_net"]) or {}
+
+    monkeypatch.setattr(bench_detect_module, "bench_detect", bench)
+    assert main(["bench", "detect", "--network-draws", "3", "--json", "--start", "operating_point"]) == 0
+    assert main(["bench", "detect", "--json", "--train-start", "both"]) == 0
     capsys.readouterr()
+    assert starts == [("operating_point", "rest"), ("rest", "both")]
     shipped = WindowNetSettings()
     assert asked[0].seeds == 3 and asked[0].members == shipped.members and asked[0].epochs == shipped.epochs
     assert asked[1] is None  # bench_detect's own default: the shipped network's settings
