@@ -225,7 +225,7 @@ def bench_detect(
     samples: int | None = None,
     window_net=None,
     windows: bool = False,
-    start: str = "rest",
+    start: str = "operating_point",
     train_start: str = "rest",
 ) -> dict:
     """``window_net``: the window networks' ``trainer.window_net.WindowNetSettings`` (default the shipped
@@ -237,7 +237,8 @@ def bench_detect(
     loops recorded longer, as exports and the agent's windows hold them).  The detectors
     are trained as the shipped one is, on the thesis's bands: judged on plant-scale bands, the figures say
     how the verdict carries to valves smaller than it was trained on.  ``start``: where the judged families' loops
-    start, ``train_start`` the training families' (``sim.plant_families.START``; the shipped models' from rest)."""
+    start (in operation, as a plant's records are: from rest, the detuned family's windows were mostly start-up
+    ramps), ``train_start`` the training families' (``sim.plant_families.START``; the shipped models' from rest)."""
     from stiction.bench.measured import labelled_exports
     from stiction.detect import training
     from stiction.detect.features import evidence

@@ -178,9 +178,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument(
         "--start",
         choices=FAMILY_STARTS,
-        default="rest",
-        help="where the judged families' loops start: from rest (after a window's warm-up), settled at their "
-        "setpoint (loops in operation, as a plant's are), or every other loop each way",
+        default="operating_point",
+        help="where the judged families' loops start: settled at their setpoint (the default: loops in operation, "
+        "as a plant's are), from rest (a window's warm-up before the record: the figures before 2026-11-30), or "
+        "every other loop each way",
     )
     t.add_argument(
         "--train-start",

@@ -40,10 +40,10 @@ def test_bench_detect_trains_its_held_out_networks_on_the_draws_asked_for_and_el
         return asked.append(k["window_net"]) or {}
 
     monkeypatch.setattr(bench_detect_module, "bench_detect", bench)
-    assert main(["bench", "detect", "--network-draws", "3", "--json", "--start", "operating_point"]) == 0
+    assert main(["bench", "detect", "--network-draws", "3", "--json", "--start", "rest"]) == 0
     assert main(["bench", "detect", "--json", "--train-start", "both"]) == 0
     capsys.readouterr()
-    assert starts == [("operating_point", "rest"), ("rest", "both")]
+    assert starts == [("rest", "rest"), ("operating_point", "both")]  # judged in operation unless asked
     shipped = WindowNetSettings()
     assert asked[0].seeds == 3 and asked[0].members == shipped.members and asked[0].epochs == shipped.epochs
     assert asked[1] is None  # bench_detect's own default: the shipped network's settings
