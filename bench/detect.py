@@ -129,7 +129,7 @@ def _share_called(faults: np.ndarray, called: np.ndarray, cycling: np.ndarray) -
             "cycling": float(np.mean(cycling[faults]))}  # fmt: skip
 
 
-def _family_set(n_per_cause: int, seed: int, bands: str, samples: int | None = None, start: str = "rest"):
+def _family_set(n_per_cause: int, seed: int, bands: str, samples: int | None = None, start: str = "operating_point"):
     from stiction.detect.features import evidence
     from stiction.sim.plant_families import WINDOW_SAMPLES, family_loops, simulate_families, stable
 

@@ -295,8 +295,11 @@ def in_operation(n_loops: int, start: str) -> np.ndarray:
     """Which of ``n_loops`` loops start settled at their setpoint under ``start`` (``START``)."""
     if start not in START:
         raise ValueError(f"start {start!r}: one of {', '.join(START)}")
-    at = np.arange(n_loops)
-    return at >= 0 if start == "operating_point" else (at % 2 == 1) if start == "both" else at < 0
+    if start == "operating_point":
+        return np.ones(n_loops, bool)
+    if start == "both":
+        return np.arange(n_loops) % 2 == 1
+    return np.zeros(n_loops, bool)
 
 
 def simulate_families(
