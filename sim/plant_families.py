@@ -10,13 +10,14 @@ A family is a kind of plant loop: its process, its tuning and how its historian 
 - ``detuned``: any of those processes under a controller 3-20 times slower than SIMC's
   (gain 0.05-0.3 of it, integral time 3-20 times), as plants often run them.
 
-Every loop starts from rest (PV 0, SP 50) and runs a window's warm-up before its recorded window, as the
-shipped detector and window network were trained.  ``simulate_families(..., start="operating_point")`` starts
+By default every loop starts from rest (PV 0, SP 50) and runs a window's warm-up before its recorded window, as
+the shipped detector and window network were trained.  ``simulate_families(..., start="operating_point")`` starts
 each loop settled at SP instead (``sim.loop.LoopState.at_operating_point``): from rest, a detuned controller is
 still climbing to its setpoint after the warm-up (on seed 3031, 376 of the detuned family's 720 windows began
 more than 3 % of span below SP, start-up ramps on which the detector found 38 % of the faults shown, against 83 %
-elsewhere).  Models retrained on loops started in operation were judged and not shipped (docs/benchmarks.md,
-"The families started at their operating point").
+elsewhere); ``start="both"`` settles every other loop.  ``stiction bench detect`` judges its held-out families in
+operation.  Models retrained on loops started in operation, or on both starts, were judged and not shipped
+(docs/benchmarks.md, "The families started at their operating point", "The families judged in operation").
 
 Every family gets every cause in equal numbers.  Valve faults, in the two-parameter sense
 (Choudhury, Thornhill & Shah 2005; Kano 2004: a band S = deadband + stickband, a slip J >= 0):
@@ -324,11 +325,12 @@ def simulate_families(
                 moves[row, first + int(share * samples * every) :] += step_pct
         # each faulty valve's loop again with a healthy valve, in the same batch: what the fault did to PV
         faults = [row for row, i in enumerate(idx) if loops[i].fault]
-        specs = [loops[i].spec for i in idx] + [healthy(loops[idx[row]].spec) for row in faults]
+        twins = [idx[row] for row in faults]  # the loops the batch's last rows run again, healthy
+        specs = [loops[i].spec for i in idx] + [healthy(loops[i].spec) for i in twins]
         noise, loads = z - moves, np.vstack([w, w[faults]])
         batch = build_batch(specs)
         # in operation from the first sample, settled at SP under the load's first value; a twin as its loop
-        rows_settled = settled[np.concatenate([idx, [idx[row] for row in faults]]).astype(int)]
+        rows_settled = settled[[*idx, *twins]]
         state = LoopState.at_operating_point(batch, loads[:, 0]).where(rows_settled) if rows_settled.any() else None
         op, pv_plant, mv = run_batch(batch, loads, np.vstack([noise, noise[faults]]), state=state)
         twin_pv = dict(zip(faults, pv_plant[len(idx) :], strict=True))
