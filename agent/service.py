@@ -109,6 +109,11 @@ network's cost is its chunks (0.37 ms each here, three networks), and at 10,000 
 of every window that does not cycle took the verdict stage from 0.11 to 0.23 of a core (``stiction bench
 throughput --loops 10000 --mix plant``).  ``stiction quantify`` reads up to six chunks of an export."""
 
+FIT_VALVE = False
+"""The agent does not fit the valve to a noisy level loop's record (``quantify.fitted``): at about 0.4 s a window
+on the report's thread, one such loop would hold up every other loop's report.  ``stiction quantify`` and the
+benches fit it; the agent's reports of those loops keep the learned reading."""
+
 
 class AgentService:
     def __init__(self, settings: AgentSettings, session, quantifier: Quantifier | None = None, sink=None):
@@ -117,7 +122,9 @@ class AgentService:
         self._zenoh = zenoh
         self.settings = settings
         self.session = session
-        self.quantifier = quantifier or Quantifier(settings.models_dir, sequence_chunks=SEQUENCE_CHUNKS)
+        self.quantifier = quantifier or Quantifier(
+            settings.models_dir, sequence_chunks=SEQUENCE_CHUNKS, fit_valve=FIT_VALVE
+        )
         self.core = AgentCore(settings.agent_id, settings.core)
         self.latest: dict[str, bytes] = {}
         """Each loop's latest report for ``get``, compressed (``LATEST_LEVEL``)."""

@@ -23,7 +23,7 @@ from stiction.detect import features, sequence
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide_rows
 from stiction.ident import controller
 from stiction.ident.checks import blocking, data_checks_rows
-from stiction.quantify import inlpca, physical, policy
+from stiction.quantify import fitted, inlpca, physical, policy
 from stiction.quantify.analysis import analyse_where
 from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
 from stiction.quantify.predictor import (
@@ -39,6 +39,10 @@ from stiction.schemas.report import StictionReport
 
 STAGES = ("verdict", "readings", "report")
 """The pipeline's stages: data checks, evidence and verdict; INLPCA, slips and networks; the report's assembly."""
+FITTED_WARNING = (
+    "physical reading fitted: the slips read from PV's steps were too noisy to trust, and the valve fitted to the "
+    "whole record (driven by its OP) leaves only PV's measurement noise"
+)
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"
@@ -77,9 +81,13 @@ class Result:
 class Quantifier:
     """Loads the models once; ``quantify`` is then a pure function of the windows."""
 
-    def __init__(self, models_dir: Path | None = None, sequence_chunks: int = sequence.MAX_CHUNKS):
-        """``sequence_chunks``: the most chunks of a window the window network reads (``detect.sequence``)."""
+    def __init__(self, models_dir: Path | None = None, sequence_chunks: int = sequence.MAX_CHUNKS,
+                 fit_valve: bool = True):  # fmt: skip
+        """``sequence_chunks``: the most chunks of a window the window network reads (``detect.sequence``);
+        ``fit_valve``: fit the valve to the record of a sticky level loop no slip reading is trusted for
+        (``quantify.fitted``, about 0.4 s a window)."""
         self.sequence_chunks = sequence_chunks
+        self.fit_valve = fit_valve
         self.thesis, self.cycle = load_models(models_dir)
         self.model_version = model_version(self.thesis, self.cycle)
         own = Path(models_dir) / DETECTOR_FILE if models_dir is not None else None
@@ -167,6 +175,14 @@ class Quantifier:
         phys = a.physical
         physical_ok = policy.physical_trusted(phys, level, a.period_s, op.shape[1], ts_s)
         band = policy.band_read(phys, level)
+        fitted_ok = np.zeros(n, bool)
+        want = use & level & ~physical_ok & (sticky | band) if self.fit_valve else np.zeros(n, bool)
+        if want.any():  # the valve fitted to the record where no slip reading is trusted (``quantify.fitted``)
+            rows = np.flatnonzero(want)
+            seeds = np.stack([np.column_stack([phys.fs_pct[rows], phys.fd_pct[rows]]), learned[rows]], axis=1)
+            fit = fitted.read(op[rows], pv[rows], ts_s, extra=seeds)
+            phys, fitted_ok = policy.with_fitted(phys, fit, rows)
+            physical_ok = physical_ok | fitted_ok
         clock = self._lap("readings", clock)
         results: list[Result] = []
         for i, w in enumerate(windows):
@@ -216,6 +232,8 @@ class Quantifier:
             fresh = len(warnings)
             if np.isfinite(ood[i]) and ood[i] > 1:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
+            if fitted_ok[i]:
+                warnings.append(FITTED_WARNING)
             physical_i = (phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i])
             learned_i = (learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1])
             can_combine = bool(level[i] and cycle_ok[i])  # both readings ran: elsewhere nothing to weigh

@@ -3,7 +3,8 @@
 Every window runs the thesis chain; beside it the physical reading of the slips and the learned
 cycle ensemble.  The headline ``fs_pct``/``fd_pct`` come from the first that a valve can have:
 
-1. ``physical`` where the slips read fs and fd to within ``PHYSICAL_MAX_SE_PCT``;
+1. ``physical`` where the slips read fs and fd to within ``PHYSICAL_MAX_SE_PCT``, or, beyond it, where the
+   valve fitted to the whole record explains it to its noise (``quantify.fitted``, ``with_fitted``);
 2. else ``combined`` where the slips' reading, beyond that trust, and the learned one agree within
    ``AGREE_SE`` standard errors: the two weighed by their errors (``combine``);
 3. else ``learned``, the cycle ensemble on the INLPCA curve;
@@ -14,6 +15,8 @@ All of them read the thesis's level loop: where its process is neither declared 
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -54,6 +57,26 @@ def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: i
         & (phys.fd_se_pct <= trust)
         & (phys.slips <= slip_limit)
     )
+
+
+def with_fitted(phys, fit, rows: np.ndarray):
+    """``phys`` (``quantify.physical.PhysicalReading``) with the fitted reading (``quantify.fitted``) in the windows
+    ``rows`` [K] (indices; ``fit`` holds their readings in that order) where it was accepted, and which windows
+    those are [W] bool.  The fitted reading's errors are its own (``fitted.MIN_SE_PCT``): stored divided by the
+    physical reading's widening (``ERROR_SCALE``), which the report applies to the block."""
+    took = np.zeros(phys.fs_pct.shape[0], bool)
+    idx = np.asarray(rows)[fit.accepted]
+    if idx.size == 0:
+        return phys, took
+    took[idx] = True
+    k_fs, k_fd = ERROR_SCALE["physical"]
+    fields = {name: np.array(getattr(phys, name)) for name in ("fs_pct", "fd_pct", "fs_se_pct", "fd_se_pct")}
+    for name, values in (("fs_pct", fit.fs_pct), ("fd_pct", fit.fd_pct), ("fs_se_pct", fit.fs_se_pct / k_fs),
+                         ("fd_se_pct", fit.fd_se_pct / k_fd)):  # fmt: skip
+        fields[name][idx] = values[fit.accepted]
+    segmented = np.array(phys.segmented)
+    segmented[idx] = False
+    return replace(phys, **fields, segmented=segmented), took
 
 
 AGREE_SE = 2.0

@@ -1,0 +1,71 @@
+"""The fitted reading: its kernel against its definition, its model against the simulator, and a friction hidden
+under a noise that defeats the slip readings found, with an unmodelled load refused."""
+
+import numpy as np
+import pytest
+
+from stiction.quantify import fitted, physical
+from stiction.quantify.fitted_kernel import segment_rss
+from stiction.sim.disturbance import Disturbance
+from stiction.sim.loop import LoopSpec, simulate
+from stiction.sim.valve import Friction, pct_to_lbf
+
+
+def _loop(fs, fd, disturbance=None, seed=5):
+    r = simulate([LoopSpec(fs, fd, disturbance=disturbance, seed=seed)]).kept()
+    return r.op[0], r.pv[0], r.mv[0]
+
+
+def test_the_model_is_the_simulators_valve_and_level():
+    op, pv, mv = _loop(37.0, 14.0)
+    level = fitted.stem_path(op, 37.0, 14.0, mv[0])
+    assert np.max(np.abs(pv[0] + level - pv)) < 1e-6  # the recorded OP, through the valve, makes the record
+    wrong = fitted.stem_path(op, 40.0, 14.0, mv[0])
+    assert np.max(np.abs(pv[0] + wrong - pv)) > 0.1
+
+
+@pytest.mark.parametrize("segment", [7, 100, 1000])
+def test_kernel_matches_the_definition(segment):
+    rng = np.random.default_rng(1)
+    op, pv, _ = _loop(55.0, 30.0)
+    pv = pv + rng.normal(0, 0.05, pv.size)
+    cands = np.array([(55.0, 30.0), (20.0, 3.0), (80.0, 79.0)])
+    mv0 = op[0] + np.array([0.3, -0.1, 0.0])
+    fr = Friction.physical(pct_to_lbf(cands[:, 0]), pct_to_lbf(cands[:, 1]))
+    got = segment_rss(op, pv, fr.fs_lbf, fr.stop_lbf, mv0, fr.slip_s, fitted.LEVEL_GAIN_PER_S, fr.lbf_per_pct, segment)
+    for c, (fs, fd) in enumerate(cands):
+        r = pv - fitted.stem_path(op, fs, fd, mv0[c])
+        want = sum(np.sum((p - p.mean()) ** 2) for p in np.array_split(r, np.arange(segment, r.size, segment)))
+        assert got[c] == pytest.approx(want, rel=1e-9, abs=1e-9)
+
+
+def test_friction_under_measurement_noise_is_found_where_the_slips_cannot_read_it():
+    fs, fd = 62.3, 21.7
+    op, pv, _ = _loop(fs, fd, Disturbance("gaussian", "output", 0.25), seed=11)
+    slips = physical.read_best(op, pv)
+    assert not (max(slips.fs_se_pct[0], slips.fd_se_pct[0]) <= 0.75)  # the slip readings are not trusted here
+    got = fitted.read(op, pv)
+    assert got.accepted[0]
+    assert abs(got.fs_pct[0] - fs) <= 2 * got.fs_se_pct[0]
+    assert abs(got.fd_pct[0] - fd) <= 2 * got.fd_se_pct[0]
+    assert got.variance_ratio[0] < fitted.MAX_VARIANCE_RATIO
+
+
+def test_a_load_the_model_does_not_hold_is_refused():
+    op, pv, _ = _loop(62.3, 21.7, Disturbance("sine", "input", 0.25, omega_rad_s=0.05), seed=11)
+    got = fitted.read(op, pv)
+    assert not got.accepted[0]
+    assert got.variance_ratio[0] > fitted.MAX_VARIANCE_RATIO or got.peak_share[0] > fitted.MAX_PEAK_SHARE
+
+
+def test_a_periodic_residual_is_refused():
+    rng = np.random.default_rng(2)
+    white = rng.normal(size=1000)
+    sine = np.sin(2 * np.pi * np.arange(1000) / 37.0)
+    assert fitted.peak_share(white) < fitted.MAX_PEAK_SHARE < fitted.peak_share(sine + 0.3 * white)
+
+
+def test_noise_sd_reads_white_noise_through_slips():
+    rng = np.random.default_rng(3)
+    steps = np.repeat(rng.normal(0, 2.0, 20), 50)  # a level that jumps now and then
+    assert fitted.noise_sd(np.cumsum(steps) * 0.01 + rng.normal(0, 0.2, 1000)) == pytest.approx(0.2, rel=0.15)
