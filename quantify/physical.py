@@ -15,7 +15,8 @@ still, so the flow series ``15 s * dPV`` is piecewise constant plus noise: an op
 segmentation of it (penalised least squares) finds the slips as segment boundaries and
 the stem's positions as segment means, and the same brackets then read fs and fd
 (``read_segmented``).  Slow disturbances on the process input make the flow itself vary
-and defeat both readings; their standard errors say so, and the pipeline then trusts
+and defeat both readings; their standard errors say so, and the pipeline then fits the
+valve to the whole record (``quantify.fitted``, where its residual is PV's noise) or trusts
 the learned predictor.
 """
 
