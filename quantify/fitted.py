@@ -203,3 +203,10 @@ def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = 
         np.zeros(0)] * 6  # fmt: skip
     accepted = (ratio <= MAX_VARIANCE_RATIO) & (peak <= MAX_PEAK_SHARE)
     return FittedReading(fs, fd, fs_se, fd_se, ratio, peak, accepted)
+
+
+def warm_up() -> None:
+    """Compile (or load from its cache) the kernel before the first report that fits a valve."""
+    op = np.sin(np.arange(32.0) / 5)
+    grid = np.array([[10.0, 5.0]])
+    _rss(op, op, grid, COARSE_SEGMENT, 1.0, LEVEL_GAIN_PER_S)

@@ -295,10 +295,11 @@ def _blocks(shown: dict, level: bool) -> dict:
 
 
 def warm_up() -> None:
-    """Compile (or load from their caches) the compiled parts, INLPCA, evidence, the physical reading and the PI
-    fit, now rather than in the first report's time: a first compile on a machine takes seconds."""
+    """Compile (or load from their caches) the compiled parts, INLPCA, evidence, the physical and fitted readings and
+    the PI fit, now rather than in the first report's time: a first compile on a machine takes seconds."""
     inlpca.warm_up()
     features.warm_up()
     physical.warm_up()
+    fitted.warm_up()
     t = np.arange(64, dtype=float)
     controller.fit_pi(np.sin(t / 5)[None], np.cos(t / 5)[None])
