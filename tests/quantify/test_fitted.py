@@ -52,10 +52,30 @@ def test_friction_under_measurement_noise_is_found_where_the_slips_cannot_read_i
 
 
 def test_a_load_the_model_does_not_hold_is_refused():
-    op, pv, _ = _loop(62.3, 21.7, Disturbance("sine", "input", 0.25, omega_rad_s=0.05), seed=11)
+    op, pv, _ = _loop(62.3, 21.7, Disturbance("brownian", "input", 0.25), seed=11)
     got = fitted.read(op, pv)
     assert not got.accepted[0]
     assert got.variance_ratio[0] > fitted.MAX_VARIANCE_RATIO or got.peak_share[0] > fitted.MAX_PEAK_SHARE
+
+
+@pytest.mark.parametrize("fs, fd, omega", [(47.1, 18.4, 0.13), (30.0, 25.0, 0.3)])
+def test_a_load_cycle_is_taken_out_and_the_friction_found(fs, fd, omega):
+    op, pv, _ = _loop(fs, fd, Disturbance("sine", "output", 0.1, omega_rad_s=omega), seed=12)
+    first = fitted.fit_one(op, pv)
+    assert not first.accepted and first.peak_share > fitted.MAX_PEAK_SHARE  # the cycle is left in the residual
+    got = fitted.read(op, pv)
+    assert got.accepted[0] and got.sinusoid_rad_s[0] == pytest.approx(omega, rel=0.01)
+    assert abs(got.fs_pct[0] - fs) <= 2 * got.fs_se_pct[0]
+    assert abs(got.fd_pct[0] - fd) <= 2 * got.fd_se_pct[0]
+
+
+def test_a_stem_that_never_slips_is_not_read():
+    """A record fitted by a stem stuck all window (it bounds fs from below, and says nothing of fd) is refused, however
+    well it fits."""
+    op = 50 + 2 * np.sin(np.arange(1000) / 40)
+    pv = 50 + np.random.default_rng(4).normal(0, 0.01, 1000)
+    fit = fitted.fit_window(op, pv)
+    assert fit.slips < fitted.MIN_SLIPS and not fit.accepted
 
 
 def test_a_periodic_residual_is_refused():
