@@ -110,7 +110,7 @@ of every window that does not cycle took the verdict stage from 0.11 to 0.23 of 
 throughput --loops 10000 --mix plant``).  ``stiction quantify`` reads up to six chunks of an export."""
 
 FIT_VALVE = False
-"""The agent does not fit the valve to a noisy level loop's record (``quantify.fitted``): at about 0.4 s a window
+"""The agent does not fit the valve to a noisy level loop's record (``ident.open_loop``): at 1-3 s a window
 on the report's thread, one such loop would hold up every other loop's report.  ``stiction quantify`` and the
 benches fit it; the agent's reports of those loops keep the learned reading."""
 

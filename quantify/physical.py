@@ -16,7 +16,7 @@ segmentation of it (penalised least squares) finds the slips as segment boundari
 the stem's positions as segment means, and the same brackets then read fs and fd
 (``read_segmented``).  Slow disturbances on the process input make the flow itself vary
 and defeat both readings; their standard errors say so, and the pipeline then fits the
-valve to the whole record (``quantify.fitted``, where its residual is PV's noise) or trusts
+valve to the whole record (``ident.open_loop``, where its residual is PV's noise) or trusts
 the learned predictor.
 """
 

@@ -21,9 +21,9 @@ import numpy as np
 
 from stiction.detect import features, sequence
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide_rows
-from stiction.ident import controller
+from stiction.ident import controller, open_loop
 from stiction.ident.checks import blocking, data_checks_rows
-from stiction.quantify import fitted, inlpca, physical, policy
+from stiction.quantify import inlpca, physical, policy
 from stiction.quantify.analysis import analyse_where
 from stiction.quantify.assembly import NOTHING_SHOWN, assemble, estimate_block, friction_fields, opt, process_info
 from stiction.quantify.predictor import (
@@ -85,7 +85,7 @@ class Quantifier:
                  fit_valve: bool = True):  # fmt: skip
         """``sequence_chunks``: the most chunks of a window the window network reads (``detect.sequence``);
         ``fit_valve``: fit the valve to the record of a sticky level loop no slip reading is trusted for
-        (``quantify.fitted``, about 0.4 s a window)."""
+        (``ident.open_loop``, about 1 s a window)."""
         self.sequence_chunks = sequence_chunks
         self.fit_valve = fit_valve
         self.thesis, self.cycle = load_models(models_dir)
@@ -177,10 +177,10 @@ class Quantifier:
         band = policy.band_read(phys, level)
         fitted_ok = np.zeros(n, bool)
         want = use & level & ~physical_ok & (sticky | band) if self.fit_valve else np.zeros(n, bool)
-        if want.any():  # the valve fitted to the record where no slip reading is trusted (``quantify.fitted``)
+        if want.any():  # the valve fitted to the record where no slip reading is trusted (``ident.open_loop``)
             rows = np.flatnonzero(want)
             seeds = np.stack([np.column_stack([phys.fs_pct[rows], phys.fd_pct[rows]]), learned[rows]], axis=1)
-            fit = fitted.read(op[rows], pv[rows], ts_s, extra=seeds)
+            fit = open_loop.read(op[rows], pv[rows], ts_s, extra=seeds)
             phys, fitted_ok = policy.with_fitted(phys, fit, rows)
             physical_ok = physical_ok | fitted_ok
         clock = self._lap("readings", clock)
@@ -300,6 +300,6 @@ def warm_up() -> None:
     inlpca.warm_up()
     features.warm_up()
     physical.warm_up()
-    fitted.warm_up()
+    open_loop.warm_up()
     t = np.arange(64, dtype=float)
     controller.fit_pi(np.sin(t / 5)[None], np.cos(t / 5)[None])

@@ -4,7 +4,7 @@ Every window runs the thesis chain; beside it the physical reading of the slips 
 cycle ensemble.  The headline ``fs_pct``/``fd_pct`` come from the first that a valve can have:
 
 1. ``physical`` where the slips read fs and fd to within ``PHYSICAL_MAX_SE_PCT``, or, beyond it, where the
-   valve fitted to the whole record explains it to its noise (``quantify.fitted``, ``with_fitted``);
+   valve fitted to the whole record explains it to its noise (``ident.open_loop``, ``with_fitted``);
 2. else ``combined`` where the slips' reading, beyond that trust, and the learned one agree within
    ``AGREE_SE`` standard errors: the two weighed by their errors (``combine``);
 3. else ``learned``, the cycle ensemble on the INLPCA curve;
@@ -60,9 +60,9 @@ def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: i
 
 
 def with_fitted(phys, fit, rows: np.ndarray):
-    """``phys`` (``quantify.physical.PhysicalReading``) with the fitted reading (``quantify.fitted``) in the windows
+    """``phys`` (``quantify.physical.PhysicalReading``) with the fitted reading (``ident.open_loop``) in the windows
     ``rows`` [K] (indices; ``fit`` holds their readings in that order) where it was accepted, and which windows
-    those are [W] bool.  The fitted reading's errors are its own (``fitted.MIN_SE_PCT``): stored divided by the
+    those are [W] bool.  The fitted reading's errors are its own (``open_loop.MIN_SE_PCT``): stored divided by the
     physical reading's widening (``ERROR_SCALE``), which the report applies to the block."""
     took = np.zeros(phys.fs_pct.shape[0], bool)
     idx = np.asarray(rows)[fit.accepted]

@@ -1,4 +1,5 @@
-"""The fitted reading: the physical valve fitted to the whole record of a level loop (output error).
+"""The valve fitted to the whole record of a level loop, driven open loop by its recorded OP (output error): the
+fitted reading, which ``quantify.pipeline`` shows in the physical block.
 
 The physical reading (``quantify.physical``) reads the stem from PV's steps, ``15 s * dPV``: a measurement
 noise on PV is differenced there, and beyond a few tenths of a percent it hides the slips (the readings'
@@ -41,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stiction.quantify.fitted_kernel import segment_rss
+from stiction.ident.open_loop_kernel import segment_rss
 from stiction.sim.process import LOOPS
 from stiction.sim.valve import Friction, pct_to_lbf
 
@@ -108,7 +109,7 @@ class FittedReading:
 def stem_path(op: np.ndarray, fs_pct: float, fd_pct: float, mv0_pct: float, ts_s: float = 1.0,
               gain_per_s: float = LEVEL_GAIN_PER_S) -> np.ndarray:  # fmt: skip
     """[N] the level (from 0) the recorded ``op`` makes through a valve of friction ``fs_pct``, ``fd_pct`` whose stem
-    starts stuck at ``mv0_pct``: the definition ``fitted_kernel.segment_rss`` is held to, one sample at a time."""
+    starts stuck at ``mv0_pct``: the definition ``open_loop_kernel.segment_rss`` is held to, one sample at a time."""
     return _path(op, fs_pct, fd_pct, mv0_pct, ts_s, gain_per_s)[0]
 
 

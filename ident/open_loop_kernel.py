@@ -1,7 +1,7 @@
 """The fitted reading's inner loop, compiled: the physical valve driven by the recorded OP, integrated by the level
 process, against the recorded PV, for many candidate frictions at once.
 
-``quantify.fitted`` keeps the definition (``stem_path``, numpy, one candidate); tests/quantify/test_fitted.py
+``ident.open_loop`` keeps the definition (``stem_path``, numpy, one candidate); tests/ident/test_open_loop.py
 holds this kernel to it.  A candidate costs one pass over the window (1,000 samples: about 3 us); a fit
 tries some 60,000.
 """
