@@ -25,7 +25,14 @@ def test_json_lines_one_report_per_file(loops, capsys):
     assert [r["loop_id"] for r in reports] == ["a", "n1"]
     assert reports[0]["method"] == "physical"
     assert reports[0]["fs_pct"] == pytest.approx(50, abs=0.1) and reports[0]["fd_pct"] == pytest.approx(20, abs=0.1)
-    assert reports[1]["denoised"] and reports[1]["method"] == "learned"
+    # N1's noise hides the slips from PV's steps: the command fits the valve to the record (ident.open_loop)
+    from stiction.quantify.pipeline import FITTED_WARNING
+    from stiction.sim.grid import case_specs
+
+    n1 = case_specs(seed=2)["N1"]
+    assert reports[1]["denoised"] and reports[1]["method"] == "physical" and FITTED_WARNING in reports[1]["warnings"]
+    assert abs(reports[1]["fs_pct"] - n1.fs_pct) <= 2 * reports[1]["fs_se_pct"]
+    assert abs(reports[1]["fd_pct"] - n1.fd_pct) <= 2 * reports[1]["fd_se_pct"]
 
 
 def test_bad_file_is_named_and_the_others_still_reported(loops):
