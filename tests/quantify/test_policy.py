@@ -59,7 +59,10 @@ def test_noisy_level_loops_read_by_both_are_read_closer_than_by_the_network_alon
 
     specs = random_loops(80, 781)
     r = simulate(specs).kept()
-    reports = Quantifier().quantify([Window(f"n{i}", r.op[i], r.pv[i], process="level") for i in range(len(specs))])
+    # the combination is what speaks where the valve is not fitted to the record (as in the agent): fitted, most of
+    # these loops are read by the fitted reading instead, and the fits took this test from 5 to 55 s
+    quantifier = Quantifier(fit_valve=False)
+    reports = quantifier.quantify([Window(f"n{i}", r.op[i], r.pv[i], process="level") for i in range(len(specs))])
     both = [(rep, s) for rep, s in zip(reports, specs, strict=True) if rep.method == "combined"]
     assert len(both) >= 8, [rep.method for rep in reports]
     err_combined, err_learned = [], []
