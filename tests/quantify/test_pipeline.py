@@ -396,10 +396,12 @@ def test_backlash_is_a_valve_fault_and_the_report_tells_deadband_from_stick_slip
     assert both.s_pct == pytest.approx(5.0 + s_true, rel=0.02) and both.j_pct == pytest.approx(j_true, rel=0.1)
 
 
-def test_the_canonical_loop_is_judged_as_itself_under_heavy_noise_and_under_a_load(quantifier):
+def test_the_canonical_loop_is_judged_as_itself_under_heavy_noise_and_under_a_load():
     """Hidden effects on the thesis's own loop (declared): a sticky valve under white noise of a quarter of PV's
     RMS, whose cycle the noise makes irregular, is still sticky; a healthy valve cycling under a fast external
-    sine load, whose OP the physical reading can cut into slips, is not."""
+    sine load, whose OP the physical reading can cut into slips, is not.  The verdict only: the valve is not fitted
+    to the records (the fits do not touch the verdict, and took this test from 5 to 16 s)."""
+    quantifier = Quantifier(fit_valve=False)
     from stiction.sim.disturbance import Disturbance
     from stiction.sim.extensions import Extensions
 
