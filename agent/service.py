@@ -220,7 +220,7 @@ class AgentService:
 
     # lifecycle ---------------------------------------------------------------------------------
     def start(self) -> AgentService:
-        warm_up()  # before the first samples: a first compile must not delay the first reports
+        warm_up(FIT_VALVE)  # before the first samples: a first compile must not delay the first reports
         p, s = self.settings.prefix, self.session
         self._spec_samples = self._sample_subscriber(keys.all_samples(p))  # the spec's key: every agent
         self._declared = [

@@ -294,12 +294,14 @@ def _blocks(shown: dict, level: bool) -> dict:
     }
 
 
-def warm_up() -> None:
-    """Compile (or load from their caches) the compiled parts, INLPCA, evidence, the physical and fitted readings and
-    the PI fit, now rather than in the first report's time: a first compile on a machine takes seconds."""
+def warm_up(fit_valve: bool = True) -> None:
+    """Compile (or load from their caches) the compiled parts, INLPCA, evidence, the physical and (``fit_valve``, as
+    the ``Quantifier`` is told) fitted readings and the PI fit, now rather than in the first report's time: a first
+    compile on a machine takes seconds."""
     inlpca.warm_up()
     features.warm_up()
     physical.warm_up()
-    open_loop.warm_up()
+    if fit_valve:
+        open_loop.warm_up()
     t = np.arange(64, dtype=float)
     controller.fit_pi(np.sin(t / 5)[None], np.cos(t / 5)[None])
