@@ -43,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stiction.ident.open_loop_kernel import segment_rss
+from stiction.ident.stem import second_difference_sd
 from stiction.sim.process import LOOPS
 from stiction.sim.valve import Friction, pct_to_lbf
 
@@ -167,13 +168,6 @@ def _minima(grid: np.ndarray, rss: np.ndarray, count: int, apart: float) -> list
     return out
 
 
-def noise_sd(pv: np.ndarray) -> float:
-    """The measurement noise's standard deviation from PV's second differences (a white noise's variance six
-    times), by their median absolute deviation: a slip is one sample in many and does not move it."""
-    d2 = np.diff(np.asarray(pv, float), 2)
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
-
-
 def peak_share(residual: np.ndarray) -> float:
     """The largest ordinate of the residual's periodogram over their sum (Fisher's g): about ``ln(n/2) / (n/2)``
     for white noise (1.2 % at 1,000 samples), most of it for a sine."""
@@ -281,7 +275,7 @@ def fit_one(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, ext
     s2 = rss.min() / (n - n // MEDIUM_SEGMENT - 2)
     inside = grid[rss <= rss.min() + 3.84 * s2]
     se = np.maximum(np.ptp(inside, axis=0) / (2 * 1.96), MIN_SE_PCT)
-    sd = noise_sd(pv)
+    sd = second_difference_sd(pv)  # the white noise only: no floor for a stepped record (ident.stem.pv_noise_sd)
     ratio = rss_min / (n * sd**2) if sd > 0 else np.inf
     residual, slips = _best_start_residual(op, pv, fs, fd, ts_s, gain_per_s)
     return Fit(float(fs), float(fd), float(se[0]), float(se[1]), float(ratio), peak_share(residual), slips)

@@ -44,14 +44,20 @@ class StemPath:
         return StemPath(np.asarray(slips, int), self.directions, self.levels, self.noise_sd)
 
 
+def second_difference_sd(x: np.ndarray) -> float:
+    """A white noise's standard deviation in ``x``, from the MAD of its second differences (ramps and levels cancel,
+    and a slip is one sample in many; a white noise's second differences have six times its variance)."""
+    d2 = np.diff(np.asarray(x, float), n=2)
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+
+
 def pv_noise_sd(pv: np.ndarray) -> float:
-    """White measurement noise on PV, from the MAD of its second differences (ramps and levels cancel).
+    """White measurement noise on PV (``second_difference_sd``).
 
     A record stored in steps has most second differences exactly zero: its noise is at least the
     rounding's, a step over the square root of 12.
     """
-    d2 = np.diff(pv, n=2)
-    sd = float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+    sd = second_difference_sd(pv)
     q = lattice.resolution(pv)
     return max(sd, q / np.sqrt(12.0)) if q else sd
 

@@ -6,6 +6,7 @@ import pytest
 
 from stiction.ident import open_loop as fitted
 from stiction.ident.open_loop_kernel import segment_rss
+from stiction.ident.stem import second_difference_sd
 from stiction.quantify import physical
 from stiction.sim.disturbance import Disturbance
 from stiction.sim.loop import LoopSpec, simulate
@@ -86,7 +87,7 @@ def test_a_periodic_residual_is_refused():
     assert fitted.peak_share(white) < fitted.MAX_PEAK_SHARE < fitted.peak_share(sine + 0.3 * white)
 
 
-def test_noise_sd_reads_white_noise_through_slips():
+def test_the_noise_is_read_as_white_noise_through_slips():
     rng = np.random.default_rng(3)
     steps = np.repeat(rng.normal(0, 2.0, 20), 50)  # a level that jumps now and then
-    assert fitted.noise_sd(np.cumsum(steps) * 0.01 + rng.normal(0, 0.2, 1000)) == pytest.approx(0.2, rel=0.15)
+    assert second_difference_sd(np.cumsum(steps) * 0.01 + rng.normal(0, 0.2, 1000)) == pytest.approx(0.2, rel=0.15)
