@@ -29,7 +29,7 @@ candidate whose level leaves PV the smallest residual is the reading.
   that wanders (a random walk on the input), another valve or process: the residual says so, and the reading is
   withheld.
 - Its standard errors are those the medium stage's profile gives (the candidates within the 95 % band of
-  the residual's chi-square), never under ``MIN_SE_PCT`` (``SINUSOID_MIN_SE_PCT``): the profile of a jagged
+  the residual's chi-square), never under ``MIN_SE_PCT`` (fd: ``SINUSOID_MIN_FD_SE_PCT``): the profile of a jagged
   residual is narrower than the reading's error, and on the design seeds the floor is what holds the truth.
 
 Constants chosen on random loops of seeds 3131-3133 (docs/benchmarks.md, "The fitted reading"); ``stiction
@@ -39,6 +39,7 @@ bench accuracy``'s sets judged after.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -78,9 +79,9 @@ MIN_CYCLES = 2
 SINUSOID_STEPS = 81
 MAX_UNEXPLAINED = 0.05
 """With a sinusoid taken out: the most of PV's standard deviation the residual may keep."""
-SINUSOID_MIN_SE_PCT = (0.3, 0.08)
-"""The least standard errors of a reading with a sinusoid taken out: on the 34 accepted of the design seeds the
-errors' 95th percentiles were 0.41 and 0.15 (medians 0.09 and 0.007)."""
+SINUSOID_MIN_FD_SE_PCT = 0.08
+"""The least standard error of fd in a reading with a sinusoid taken out (its fs keeps ``MIN_SE_PCT``'s 0.4): on the
+34 accepted of the design seeds the errors' 95th percentiles were 0.41 (fs) and 0.15 (fd), medians 0.09 and 0.007."""
 MIN_SE_PCT = (0.4, 0.05)
 """The least standard errors (fs, fd): on the 53 accepted readings of the design seeds (3131-3133) the errors' 95th
 percentiles were 0.80 and 0.066 (medians 0.11 and 0.01), where the profile gave 0.1-0.4 and 0.1-0.13: two of
@@ -152,9 +153,13 @@ def _around(centre, half: float, step: float) -> np.ndarray:
     return grid[keep]
 
 
+@lru_cache(maxsize=1)
 def _coarse_grid() -> np.ndarray:
+    """The coarse stage's candidates (built once: every fit and every round of ``fit_window`` searches them)."""
     fs = np.arange(COARSE_STEP_PCT, MAX_FS_PCT + COARSE_STEP_PCT / 2, COARSE_STEP_PCT)
-    return np.array([(a, b) for a in fs for b in np.arange(0.0, a, COARSE_STEP_PCT)])
+    grid = np.array([(a, b) for a in fs for b in np.arange(0.0, a, COARSE_STEP_PCT)])
+    grid.flags.writeable = False
+    return grid
 
 
 def _minima(grid: np.ndarray, rss: np.ndarray, count: int, apart: float) -> list[np.ndarray]:
@@ -190,23 +195,14 @@ def _best_start_residual(op, pv, fs_pct, fd_pct, ts_s, gain_per_s) -> tuple[np.n
     return best, slips
 
 
-def peak_frequencies(x: np.ndarray, count: int) -> list[float]:
-    """The angular frequencies (rad a sample) of the ``count`` largest periodogram peaks of ``x`` from
-    ``MIN_CYCLES`` cycles a window up, each refined within a bin either side (the sinusoid that takes most out)."""
+def peak_frequency(x: np.ndarray) -> float:
+    """The angular frequency (rad a sample) of the largest periodogram peak of ``x`` from ``MIN_CYCLES`` cycles a
+    window up, refined within a bin either side (the sinusoid that takes most out)."""
     r = np.asarray(x, float) - np.mean(x)
     n = r.size
-    power = np.abs(np.fft.rfft(r)) ** 2
-    bins: list[int] = []
-    for k in np.argsort(power[MIN_CYCLES:])[::-1] + MIN_CYCLES:
-        if all(abs(int(k) - b) > 2 for b in bins):
-            bins.append(int(k))
-        if len(bins) == count:
-            break
-    out = []
-    for k in bins:
-        omegas = 2 * np.pi * np.linspace(k - 1, k + 1, SINUSOID_STEPS) / n
-        out.append(max(omegas, key=lambda omega: float(np.sum(sinusoid(r, omega) ** 2))))
-    return out
+    k = int(np.argmax(np.abs(np.fft.rfft(r)[MIN_CYCLES:]) ** 2)) + MIN_CYCLES
+    omegas = 2 * np.pi * np.linspace(k - 1, k + 1, SINUSOID_STEPS) / n
+    return float(max(omegas, key=lambda omega: float(np.sum(sinusoid(r, omega) ** 2))))
 
 
 def sinusoid(residual: np.ndarray, omega: float) -> np.ndarray:
@@ -295,17 +291,17 @@ def fit_window(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, 
     fit, seeds = first, list(extra)
     for round_ in range(SINUSOID_ROUNDS):  # the first round searches the whole grid again, the others around it
         residual, _ = _best_start_residual(op, pv, fit.fs_pct, fit.fd_pct, ts_s, gain_per_s)
-        wave = sinusoid(residual, peak_frequencies(residual, 1)[0])
+        wave = sinusoid(residual, peak_frequency(residual))
         seeds = [*seeds, (fit.fs_pct, fit.fd_pct)] if round_ == 0 else [(fit.fs_pct, fit.fd_pct)]
         fit = fit_one(op, pv - wave, ts_s, gain_per_s, seeds, coarse=round_ == 0)
     residual, slips = _best_start_residual(op, pv, fit.fs_pct, fit.fd_pct, ts_s, gain_per_s)
-    omega = peak_frequencies(residual, 1)[0]
+    omega = peak_frequency(residual)
     left = residual - sinusoid(residual, omega)
     left = left - left.mean()
     unexplained = float(np.sqrt(np.mean(left**2)) / max(float(np.std(pv)), 1e-12))
-    fs_se, fd_se = max(fit.fs_se_pct, SINUSOID_MIN_SE_PCT[0]), max(fit.fd_se_pct, SINUSOID_MIN_SE_PCT[1])
-    return Fit(fit.fs_pct, fit.fd_pct, fs_se, fd_se, fit.variance_ratio, peak_share(left), slips, omega / ts_s,
-               unexplained)  # fmt: skip
+    fd_se = max(fit.fd_se_pct, SINUSOID_MIN_FD_SE_PCT)
+    return Fit(fit.fs_pct, fit.fd_pct, fit.fs_se_pct, fd_se, fit.variance_ratio, peak_share(left), slips,
+               omega / ts_s, unexplained)  # fmt: skip
 
 
 def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S,
