@@ -289,13 +289,14 @@ class Fit:
     @property
     def accepted(self) -> bool:
         """The model explains the record: the stem slipped (``MIN_SLIPS``), and what is left is white noise
-        (``MAX_VARIANCE_RATIO``, ``MAX_PEAK_SHARE``) or, with a sinusoid taken out, next to nothing
+        (``MAX_VARIANCE_RATIO``, ``MAX_PEAK_SHARE``) or, with a sinusoid taken out, white noise or next to nothing
         (``MAX_UNEXPLAINED``: a second periodic part is then at most that large)."""
         if self.slips < MIN_SLIPS:
             return False
+        white = self.variance_ratio <= MAX_VARIANCE_RATIO and self.peak_share <= MAX_PEAK_SHARE
         if np.isfinite(self.sinusoid_rad_s):
-            return bool(self.unexplained <= MAX_UNEXPLAINED)
-        return bool(self.variance_ratio <= MAX_VARIANCE_RATIO and self.peak_share <= MAX_PEAK_SHARE)
+            return bool(white or self.unexplained <= MAX_UNEXPLAINED)
+        return bool(white)
 
 
 def fit_one(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, extra=(), coarse: bool = True) -> Fit:

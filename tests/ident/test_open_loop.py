@@ -107,6 +107,16 @@ def test_a_load_cycle_is_taken_out_and_the_friction_found():
     assert abs(got.fd_pct[0] - fd) <= 2 * got.fd_se_pct[0]
 
 
+def test_a_load_cycle_under_a_measurement_noise_leaves_the_noise_and_is_read():
+    """With the cycle taken out what is left is PV's white noise, more than ``MAX_UNEXPLAINED`` of its variation."""
+    fs, fd = 30.0, 25.0
+    op, pv, _ = _loop(fs, fd, Disturbance("sine", "output", 0.1, omega_rad_s=0.13), seed=12)
+    fit = fitted.fit_window(op, pv + np.random.default_rng(7).normal(0, 0.2, pv.size))
+    assert np.isfinite(fit.sinusoid_rad_s) and fit.unexplained > fitted.MAX_UNEXPLAINED
+    assert fit.accepted and fit.variance_ratio <= fitted.MAX_VARIANCE_RATIO
+    assert abs(fit.fs_pct - fs) <= 2 * fit.fs_se_pct and abs(fit.fd_pct - fd) <= 2 * fit.fd_se_pct
+
+
 def test_a_stem_that_never_slips_is_not_read():
     """A record fitted by a stem stuck all window (it bounds fs from below, and says nothing of fd) is refused, however
     well it fits."""
