@@ -65,7 +65,7 @@ def _stretch_rss(s1, s2, st, count, ramp):
 @njit(cache=True, nogil=True, error_model="numpy")
 def breakaways(op, band_pct, max_events, ks, ds):
     """The first breakaways a stem stuck somewhere at the window's start can make (``open_loop.first_breakaways``),
-    written to ``ks`` (sample) and ``ds`` (+1 up, -1 down); at most ``max_events``, evenly spaced in time where
+    written to ``ks`` (sample) and ``ds`` (+1 up, -1 down); at most ``max_events``, evenly spaced in their order where
     there are more.  Returns how many."""
     n = op.size
     count = 0
