@@ -173,21 +173,12 @@ def breakaway_residual(op, pv, fs_pct: float, fd_pct: float, k1: int, direction:
     head = pv[: k1 + 1]
     t = np.arange(head.size)
     line = np.polyval(np.polyfit(t, head, 1), t) if head.size >= 3 else head
-    mv, level, after, slips = op[k1] - direction * fr.stop_lbf[0] / fr.lbf_per_pct, 0.0, [], 1
-    for drive in op[k1 + 1 :]:
-        after.append(level)
-        force = fr.lbf_per_pct * (drive - mv)
-        flow = mv
-        if abs(force) > fr.fs_lbf[0]:
-            jump = (force - np.sign(force) * fr.stop_lbf[0]) / fr.lbf_per_pct
-            mv += jump
-            flow = mv - jump * fr.slip_s / ts_s
-            slips += 1
-        level += gain_per_s * ts_s * flow
-    tail = pv[k1 + 1 :] - np.array(after)
+    landing = op[k1] - direction * fr.stop_lbf[0] / fr.lbf_per_pct
+    after, slips = _path(op[k1 + 1 :], fs_pct, fd_pct, landing, ts_s, gain_per_s)
+    tail = pv[k1 + 1 :] - after
     step = segment or max(tail.size, 1)
     pieces = [_detrended(p, ramp) for p in np.array_split(tail, np.arange(step, tail.size, step))] if tail.size else []
-    return np.concatenate([head - line, *pieces]), slips
+    return np.concatenate([head - line, *pieces]), slips + 1
 
 
 def _detrended(x: np.ndarray, ramp: bool) -> np.ndarray:
