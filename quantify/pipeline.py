@@ -43,6 +43,10 @@ FITTED_WARNING = (
     "physical reading fitted: the slips read from PV's steps were too noisy to trust, and the valve fitted to the "
     "whole record (driven by its OP) leaves only PV's measurement noise, or a load's cycle"
 )
+UNFITTED_WARNING = (
+    "the slips read from PV's steps were too noisy to trust, and this reader does not fit the valve to the whole "
+    "record (the agent leaves it out: seconds a window): `stiction quantify` on an export of this window fits it"
+)
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"
@@ -176,7 +180,8 @@ class Quantifier:
         physical_ok = policy.physical_trusted(phys, level, a.period_s, op.shape[1], ts_s)
         band = policy.band_read(phys, level)
         fitted_ok = np.zeros(n, bool)
-        want = use & level & ~physical_ok & (sticky | band) if self.fit_valve else np.zeros(n, bool)
+        fittable = use & level & ~physical_ok & (sticky | band)
+        want = fittable if self.fit_valve else np.zeros(n, bool)
         if want.any():  # the valve fitted to the record where no slip reading is trusted (``ident.open_loop``)
             rows = np.flatnonzero(want)
             seeds = np.stack([np.column_stack([phys.fs_pct[rows], phys.fd_pct[rows]]), learned[rows]], axis=1)
@@ -234,6 +239,8 @@ class Quantifier:
                 warnings.append(f"window unlike the training data (ood {ood[i]:.1f} > 1): learned estimate unreliable")
             if fitted_ok[i]:
                 warnings.append(FITTED_WARNING)
+            elif fittable[i] and not self.fit_valve:
+                warnings.append(UNFITTED_WARNING)
             physical_i = (phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i])
             learned_i = (learned[i, 0], learned[i, 1], spread[i, 0], spread[i, 1])
             can_combine = bool(level[i] and cycle_ok[i])  # both readings ran: elsewhere nothing to weigh

@@ -554,7 +554,7 @@ def test_the_warm_up_leaves_no_kernel_to_compile_in_the_first_reports():
 
 def test_a_noisy_level_loop_the_slips_cannot_read_is_fitted_and_says_so(quantifier):
     from stiction.agent.service import FIT_VALVE
-    from stiction.quantify.pipeline import FITTED_WARNING
+    from stiction.quantify.pipeline import FITTED_WARNING, UNFITTED_WARNING
     from stiction.sim.disturbance import Disturbance
 
     spec = LoopSpec(62.3, 21.7, disturbance=Disturbance("gaussian", "output", 0.25), seed=11)
@@ -564,5 +564,9 @@ def test_a_noisy_level_loop_the_slips_cannot_read_is_fitted_and_says_so(quantifi
     assert rep.verdict == "stiction" and rep.method == "physical" and FITTED_WARNING in rep.warnings
     assert abs(rep.fs_pct - spec.fs_pct) <= 2 * rep.fs_se_pct and abs(rep.fd_pct - spec.fd_pct) <= 2 * rep.fd_se_pct
     assert rep.physical is not None and rep.physical.fs_pct == rep.fs_pct
-    unfitted = Quantifier(fit_valve=FIT_VALVE).quantify([w])[0]  # as the agent runs it
+    unfitted = Quantifier(fit_valve=FIT_VALVE).quantify([w])[0]  # as the agent runs it: it says what it left out
     assert FITTED_WARNING not in unfitted.warnings and unfitted.method != "physical"
+    assert UNFITTED_WARNING in unfitted.warnings and UNFITTED_WARNING not in rep.warnings
+    clean = simulate([LoopSpec(62.3, 21.7, seed=11)]).kept()  # its slips are read: nothing was left out
+    read = Quantifier(fit_valve=FIT_VALVE).quantify([Window("clean", clean.op[0], clean.pv[0], process="level")])[0]
+    assert read.verdict == "stiction" and read.method == "physical" and UNFITTED_WARNING not in read.warnings
