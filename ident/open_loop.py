@@ -171,14 +171,13 @@ def breakaway_residual(op, pv, fs_pct: float, fd_pct: float, k1: int, direction:
     op, pv = np.asarray(op, float), np.asarray(pv, float)
     fr = Friction.physical(pct_to_lbf(np.array([fs_pct])), pct_to_lbf(np.array([fd_pct])))
     head = pv[: k1 + 1]
-    t = np.arange(head.size)
-    line = np.polyval(np.polyfit(t, head, 1), t) if head.size >= 3 else head
     landing = op[k1] - direction * fr.stop_lbf[0] / fr.lbf_per_pct
     after, slips = _path(op[k1 + 1 :], fs_pct, fd_pct, landing, ts_s, gain_per_s)
     tail = pv[k1 + 1 :] - after
     step = segment or max(tail.size, 1)
     pieces = [_detrended(p, ramp) for p in np.array_split(tail, np.arange(step, tail.size, step))] if tail.size else []
-    return np.concatenate([head - line, *pieces]), slips + 1
+    still = _detrended(head, True) if head.size >= 3 else np.zeros(head.size)
+    return np.concatenate([still, *pieces]), slips + 1
 
 
 def _detrended(x: np.ndarray, ramp: bool) -> np.ndarray:

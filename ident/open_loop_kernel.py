@@ -36,16 +36,9 @@ def _line_rss_prefix(pv):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _line_rss(p1, pt, p2, k):
-    """The RSS of samples ``0..k`` about their least-squares line."""
-    m = k + 1.0
-    if m < 3:
-        return 0.0
-    st = m * (m - 1) / 2
-    stt = (m - 1) * m * (2 * m - 1) / 6
-    sxx = stt - st * st / m
-    sxy = pt[k] - st * p1[k] / m
-    syy = p2[k] - p1[k] * p1[k] / m
-    return max(syy - sxy * sxy / sxx, 0.0)
+    """The RSS of samples ``0..k`` about their least-squares line (``_stretch_rss`` of the prefix sums; nothing
+    under three samples)."""
+    return _stretch_rss(p1[k], p2[k], pt[k], k + 1, True) if k >= 2 else 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
