@@ -8,7 +8,7 @@ loops).  Here the noise is not differenced.  OP is recorded as the controller wr
 loop (``PV' = MV / 15 s``, spec/thesis-loop.md) the stem the valve makes of it is a deterministic function of
 the recorded OP and the friction: a valve driven by a record of OP is not the chaotic closed loop, it is an
 open-loop recursion.  So each candidate (fs, fd) gives a level, the recorded OP's stem integrated, and the
-candidate whose level leaves PV the smallest residual is the reading.
+candidates whose level leaves PV the smallest residual give the reading.
 
 - The residual is jagged in fs and fd: a candidate 0.1 % of 500 lbf off moves one breakaway by a sample, and the
   level, an integral, keeps the offset.  The search runs coarse to fine on residuals with a free offset in
@@ -31,6 +31,11 @@ candidate whose level leaves PV the smallest residual is the reading.
   cycle is read off the first fit's residual, so only where the valve nearly explains the record already.  A load
   that wanders (a random walk on the input), another valve or process: the residual says so, and the reading is
   withheld.
+- **The reading is the middle of the best, not the best.**  Over a range of fs the stem breaks away at the same
+  samples, and the residual there is flat but for PV's noise: its argmin moves with the last bits of PV.  The
+  reading is the median of the last stage's candidates within the 95 % band of the residual's chi-square (on the
+  design seeds fs's mean error 0.116 -> 0.087 pp, fd's unchanged); the residual and the acceptance are read at the
+  best (``Fit.best``).
 - Its standard errors are those the medium stage's profile gives (the candidates within the 95 % band of
   the residual's chi-square), never under ``MIN_SE_PCT`` (fd: ``SINUSOID_MIN_FD_SE_PCT``): the profile of a jagged
   residual is narrower than the reading's error, and on the design seeds the floor is what holds the truth.
@@ -276,6 +281,9 @@ class Fit:
     """The frequency of the sinusoid taken out of PV (a load's cycle: ``fit_window``), nan for none."""
     unexplained: float = np.nan
     """With a sinusoid taken out: the residual's RMS over PV's standard deviation."""
+    best: tuple[float, float] = (np.nan, np.nan)
+    """The candidate (fs, fd) that leaves the least residual: the residual, the slips and the sinusoid are read there.
+    The reading (``fs_pct``, ``fd_pct``) is the median of the candidates within the 95 % band of its residual."""
 
     @property
     def accepted(self) -> bool:
@@ -313,8 +321,12 @@ def fit_one(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, ext
         fine_rss = _rss(op, pv, fine, n, ts_s, gain_per_s, RAMP, CAP_RATIO)[0]
         i = int(np.argmin(fine_rss))
         if fine_rss[i] < best[0]:
-            best = (fine_rss[i], fine[i], (grid, rss))
-    rss_min, (fs, fd), (grid, rss) = best
+            best = (fine_rss[i], fine[i], (grid, rss), (fine, fine_rss))
+    rss_min, (fs, fd), (grid, rss), (fine, fine_rss) = best
+    # the reading: the median of the last stage's candidates within chi-square's 95 % band of its best
+    reading = np.median(fine[fine_rss <= rss_min * (1 + 3.84 / (n - 4))], axis=0)
+    if not 0 <= reading[1] < reading[0]:
+        reading = (fs, fd)
     # the medium stage's profile: the candidates within chi-square's 95 % band of its best
     s2 = rss.min() / (n - n // MEDIUM_SEGMENT - 2)
     inside = grid[rss <= rss.min() + 3.84 * s2]
@@ -322,7 +334,8 @@ def fit_one(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, ext
     sd = second_difference_sd(pv)  # the white noise only: no floor for a stepped record (ident.stem.pv_noise_sd)
     ratio = rss_min / (n * sd**2) if sd > 0 else np.inf
     residual, slips = _best_start_residual(op, pv, fs, fd, ts_s, gain_per_s)
-    return Fit(float(fs), float(fd), float(se[0]), float(se[1]), float(ratio), peak_share(residual), slips)
+    return Fit(float(reading[0]), float(reading[1]), float(se[0]), float(se[1]), float(ratio), peak_share(residual),
+               slips, best=(float(fs), float(fd)))  # fmt: skip
 
 
 def fit_window(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, extra=()) -> Fit:
@@ -338,18 +351,18 @@ def fit_window(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, 
         return first
     fit, seeds = first, list(extra)
     for round_ in range(SINUSOID_ROUNDS):  # the first round searches the whole grid again, the others around it
-        residual, _ = _best_start_residual(op, pv, fit.fs_pct, fit.fd_pct, ts_s, gain_per_s)
+        residual, _ = _best_start_residual(op, pv, *fit.best, ts_s, gain_per_s)
         wave = sinusoid(residual, peak_frequency(residual))
-        seeds = [*seeds, (fit.fs_pct, fit.fd_pct)] if round_ == 0 else [(fit.fs_pct, fit.fd_pct)]
+        seeds = [*seeds, fit.best] if round_ == 0 else [fit.best]
         fit = fit_one(op, pv - wave, ts_s, gain_per_s, seeds, coarse=round_ == 0)
-    residual, slips = _best_start_residual(op, pv, fit.fs_pct, fit.fd_pct, ts_s, gain_per_s)
+    residual, slips = _best_start_residual(op, pv, *fit.best, ts_s, gain_per_s)
     omega = peak_frequency(residual)
     left = residual - sinusoid(residual, omega)
     left = left - left.mean()
     unexplained = float(np.sqrt(np.mean(left**2)) / max(float(np.std(pv)), 1e-12))
     fd_se = max(fit.fd_se_pct, SINUSOID_MIN_FD_SE_PCT)
     return Fit(fit.fs_pct, fit.fd_pct, fit.fs_se_pct, fd_se, fit.variance_ratio, peak_share(left), slips,
-               omega / ts_s, unexplained)  # fmt: skip
+               omega / ts_s, unexplained, fit.best)  # fmt: skip
 
 
 def read(op: np.ndarray, pv: np.ndarray, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S,
