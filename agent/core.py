@@ -76,6 +76,8 @@ class _Loop:
     reading: Reading | None = None
     """The last friction reading of this loop while it is called sticky, and the reports that used it."""
     reading_reports: int = 0
+    kept_until_s: float = -math.inf
+    """A reading adopted from a background fit (``adopt``) is carried, not read afresh, until then."""
     verdict: str | None = None
     """The verdict of this loop's last report (None before the first)."""
     reported_to_s: float = -math.inf
@@ -320,12 +322,13 @@ class AgentCore:
         and enough new samples since their last report, oldest first; ``window`` builds each one's window.
 
         Friction readings (the dear part of a report) are rationed: a loop still called sticky
-        carries its reading for ``estimate_every`` reports.  Due loops that want a fresh one (sticky,
-        or not reported yet) all get it while the agent keeps up; once the oldest due window has
-        waited more than ``reading_lag_s`` at ``now_s``, only a 1/``estimate_every`` share does,
-        loops never read first, then the stalest, and the rest carry their stale reading or report
-        their verdict with the reading put off.  So a cold start of thousands of sticky loops, or a
-        take-over, spreads its readings over the next reports instead of making every report late."""
+        carries its reading for ``estimate_every`` reports (a fit's, ``adopt``, until its ``keep_until_s``).
+        Due loops that want a fresh one (sticky, or not reported yet) all get it while the agent keeps up;
+        once the oldest due window has waited more than ``reading_lag_s`` at ``now_s``, only a
+        1/``estimate_every`` share does, loops never read first, then the stalest, and the rest carry
+        their stale reading or report their verdict with the reading put off.  So a cold start of
+        thousands of sticky loops, or a take-over, spreads its readings over the next reports instead of
+        making every report late."""
         out, wanting = [], []
         every = self.settings.estimate_every
         queue, self._queue = self._queue, []  # loops that became due as they were ingested, in that order
@@ -342,7 +345,8 @@ class AgentCore:
                 continue  # another agent's, or reported already by the owner that has just died
             # a loop last called not sticky has no reading to carry and is read at once should it turn
             # sticky, outside the ration; the others want a reading when theirs is missing or stale
-            if state.reading is not None and state.reading_reports >= every:
+            kept = now_s is not None and now_s < state.kept_until_s
+            if state.reading is not None and state.reading_reports >= every and not kept:
                 wanting.append((state.reading_reports, len(out)))
             elif state.reading is None and state.verdict in (None, "stiction"):
                 wanting.append((math.inf, len(out)))
@@ -409,11 +413,21 @@ class AgentCore:
             return
         state.verdict = verdict
         if reading is not None:
-            state.reading, state.reading_reports = reading, 1
+            state.reading, state.reading_reports, state.kept_until_s = reading, 1, -math.inf
         elif verdict == "stiction" and state.reading is not None:
             state.reading_reports += 1
         elif verdict != "stiction":
-            state.reading = None
+            state.reading, state.kept_until_s = None, -math.inf
+
+    def adopt(self, loop_id: str, reading: Reading, keep_until_s: float) -> bool:
+        """A reading made in the background (a fit of the loop's window, ``quantify.refit``) becomes the loop's:
+        its next reports carry it, and none reads afresh before ``keep_until_s`` (``due_loops``' clock).  Only
+        for a loop held and still called sticky; whether it was taken."""
+        state = self.loops.get(loop_id)
+        if state is None or state.verdict != "stiction":
+            return False
+        state.reading, state.reading_reports, state.kept_until_s = reading, 1, keep_until_s
+        return True
 
     def completed(self, n_reports: int, arrivals: list[float], now_s: float) -> None:
         self.reports += n_reports

@@ -26,6 +26,7 @@ from stiction.agent.sizing_plan import SizingPlan
 from stiction.quantify.assembly import assemble, needs_sizing
 from stiction.quantify.identified import lower_priority, size_in_worker, sizing_pool
 from stiction.quantify.pipeline import Quantifier, warm_up
+from stiction.quantify.refit import fit_in_worker, worker_window
 from stiction.quantify.stem import stem_check
 from stiction.schemas import keys
 from stiction.schemas.errors import StictionError, as_stiction_error
@@ -110,9 +111,11 @@ of every window that does not cycle took the verdict stage from 0.11 to 0.23 of 
 throughput --loops 10000 --mix plant``).  ``stiction quantify`` reads up to six chunks of an export."""
 
 FIT_VALVE = False
-"""The agent does not fit the valve to a noisy level loop's record (``ident.open_loop``): at 1-3 s a window
-on the report's thread, one such loop would hold up every other loop's report.  ``stiction quantify`` and the
-benches fit it; the agent's reports of those loops keep the learned reading."""
+"""The agent does not fit the valve to a noisy level loop's record (``ident.open_loop``) on the report's thread: at
+1-3 s a window, one such loop would hold up every other loop's report.  It fits it on the sizing workers instead
+(``quantify.refit``, once every ``size_every_s``), and the loop's next reports carry the fitted reading."""
+KEEP_FIT = 2.0
+"""An accepted fit's reading is carried for this many ``size_every_s`` (its refit comes after one)."""
 
 
 class AgentService:
@@ -147,8 +150,9 @@ class AgentService:
         self.sizing = SizingPlan(settings.size_every_s, settings.size_workers) if settings.size_every_s > 0 else None
         self._size_pool = None
         self._sizings: dict = {}  # future -> (loop_id, t_end_s)
+        self._fits: dict = {}  # future -> loop_id: the windows being fitted (``quantify.refit``)
         self._stems: dict = {}  # future -> loop_id: the measured stems being checked
-        self._size_queue: dict[str, None] = {}  # loops waiting for the worker, in the order they last asked
+        self._size_queue: dict[str, bool] = {}  # loops waiting for the worker (True: a fit), in the order they asked
         self._shard_subs: dict[str, object] = {}  # key expression -> subscriber (a channel)
         self._spec_samples = None  # the subscriber (a channel) to the spec's sample key
         self._owned: set[int] = set()
@@ -302,6 +306,7 @@ class AgentService:
             self._sync_shards()
         self._collect_sizings()
         self._collect_stems()
+        self._collect_fits()
         while self._reports_seen:  # before any window is due: a report made elsewhere is never made twice
             self.core.seen_report(*self._reports_seen.popleft())
         clock = time.thread_time()
@@ -357,6 +362,8 @@ class AgentService:
             else:
                 if self.sizing.wanted(draft, time.monotonic()):
                     self._size_or_queue(w)
+                elif self.sizing.fit_wanted(draft, time.monotonic()):
+                    self._size_or_queue(w, fit=True)
                 if self.sizing.stem_wanted(w.loop_id, w.mv is not None, len(w.op), time.monotonic()):
                     self._check_stem(w)
                 report = self.sizing.apply(draft, self.settings.agent_id)
@@ -378,16 +385,19 @@ class AgentService:
         self.core.completed(len(arrivals), arrivals, time.monotonic())
 
     # background sizing ---------------------------------------------------------------------------
-    def _size_or_queue(self, w) -> None:
-        """Size the window now if the worker is free, else queue the loop until it is, when its window is
-        taken afresh from the rolling buffer (the newest; a loop whose stream ends while another is being
-        sized is still sized).  The queue holds loop ids, not windows: a plant of thousands of sticky loops
-        of unknown process waits in it, 12 kB a window copied."""
+    def _size_or_queue(self, w, fit: bool = False) -> None:
+        """Size (``fit``: fit) the window now if a worker is free, else queue the loop until one is, when its
+        window is taken afresh from the rolling buffer (the newest; a loop whose stream ends while another is
+        being sized is still sized).  The queue holds loop ids, not windows: a plant of thousands of sticky
+        loops of unknown process waits in it, 12 kB a window copied."""
         if self.sizing.has_room():
-            self._size(*self._job(w))
+            if fit:
+                self._fit(w)
+            else:
+                self._size(*self._job(w))
         else:
             self._size_queue.pop(w.loop_id, None)  # in the order loops last asked
-            self._size_queue[w.loop_id] = None
+            self._size_queue[w.loop_id] = fit
 
     @staticmethod
     def _job(w) -> tuple:
@@ -400,6 +410,34 @@ class AgentService:
         future = self._pool().submit(size_in_worker, op, pv, ts_s, loop_id, sp)
         self._sizings[future] = (loop_id, t_end_s)
         self.sizing.started(loop_id, len(op), partial)
+
+    def _fit(self, w) -> None:
+        """Fit the valve to the loop's window on a worker (``quantify.refit``), as ``stiction quantify`` does."""
+        future = self._pool().submit(fit_in_worker, worker_window(w), self.settings.models_dir, SEQUENCE_CHUNKS)
+        self._fits[future] = w.loop_id
+        self.sizing.fit_started(w.loop_id)
+
+    def _collect_fits(self) -> None:
+        """Fits that came back: an accepted one's reading is carried in the loop's next reports, and its report
+        put into the loop's latest for ``get`` where it is of the window last reported (not published again)."""
+        for future in [f for f in self._fits if f.done()]:
+            loop_id = self._fits.pop(future)
+            try:
+                fitted = future.result()
+            except Exception:  # a worker that died or failed costs this fit only
+                log.exception("background fit of %s's valve failed", loop_id)
+                fitted = None
+            now = time.monotonic()
+            self.sizing.fit_finished(loop_id, now)
+            if fitted is None or not self.core.owns(loop_id):
+                continue
+            reading, draft = fitted
+            if not self.core.adopt(loop_id, reading, now + KEEP_FIT * self.sizing.refresh_s):
+                continue
+            if draft.t_end_s is not None and draft.t_end_s == self.core.reported_to_s.get(loop_id):
+                report = self.sizing.apply(draft, self.settings.agent_id)
+                self.latest[loop_id] = zlib.compress(report.model_dump_json().encode(), LATEST_LEVEL)
+        self._start_queued()
 
     def _pool(self):
         """The background workers (``size_workers`` processes of lowered priority), started when first needed."""
@@ -440,11 +478,19 @@ class AgentService:
                 continue
             report = self.sizing.apply(draft, self.settings.agent_id)
             self.latest[loop_id] = zlib.compress(report.model_dump_json().encode(), LATEST_LEVEL)
+        self._start_queued()
+
+    def _start_queued(self) -> None:
+        """The queued loops' sizings and fits, as workers come free, each on the loop's window as it is now."""
         while self._size_queue and self.sizing.has_room():
             loop_id = next(iter(self._size_queue))
-            del self._size_queue[loop_id]
+            fit = self._size_queue.pop(loop_id)
             w = self.core.window_of(loop_id)
-            if w is not None:  # else handed to another agent, or its window restarted empty
+            if w is None:  # handed to another agent, or its window restarted empty
+                continue
+            if fit:
+                self._fit(w)
+            else:
                 self._size(*self._job(w))
 
     def health(self, advance_rates: bool = False) -> AgentHealth:

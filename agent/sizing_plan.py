@@ -10,7 +10,10 @@ the window is full or twice as long; where the partial window read nothing, alre
 long again (a stream that ends before its window fills, as a replayed 751-sample export does,
 is then still sized on most of its record).  A loop whose stream records the valve's position has its
 stem checked against OP the same way (``quantify.stem``, a fraction of a second a window), once every
-``refresh_s`` whatever its verdict, every report carrying the last check.  Pure: no clock, no processes.
+``refresh_s`` whatever its verdict, every report carrying the last check.  A noisy level loop whose report went out
+without the fitted reading (``quantify.pipeline.UNFITTED_WARNING``: a fit takes seconds) has its window fitted the
+same way (``quantify.refit``), again every ``refresh_s`` while it stays sticky; the agent's core carries an accepted
+fit's reading in its reports (``agent.core.AgentCore.adopt``).  Pure: no clock, no processes.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from dataclasses import dataclass
 
 from stiction.ident.sizing import Sizing
 from stiction.quantify.assembly import assemble, needs_sizing
+from stiction.quantify.pipeline import FITTED_WARNING, UNFITTED_WARNING
 from stiction.schemas.report import StictionReport
 
 
@@ -50,10 +54,32 @@ class SizingPlan:
         self.done = 0
         self.stems: dict[str, tuple] = {}  # loop -> (its measured stem's last check or None, why not read, when)
         self.stems_in_flight: set[str] = set()
+        self.fits: dict[str, float] = {}  # loop -> when its window was last fitted (accepted or not)
+        self.fits_in_flight: set[str] = set()
+        self.fits_done = 0
 
     def has_room(self) -> bool:
-        """Whether another sizing may start now (else the caller queues the window)."""
-        return len(self.in_flight) < self.max_in_flight
+        """Whether another sizing or fit may start now (else the caller queues the loop)."""
+        return len(self.in_flight) + len(self.fits_in_flight) < self.max_in_flight
+
+    def fit_wanted(self, report: StictionReport, now_s: float) -> bool:
+        """Whether this sticky report's window should be fitted: its reading was left unfitted, or it carries a fit
+        older than ``refresh_s`` (refitted while the loop stays sticky)."""
+        if report.verdict != "stiction" or report.loop_id in self.fits_in_flight:
+            return False
+        if UNFITTED_WARNING not in report.warnings and FITTED_WARNING not in report.warnings:
+            return False
+        last = self.fits.get(report.loop_id)
+        return last is None or now_s - last >= self.refresh_s
+
+    def fit_started(self, loop_id: str) -> None:
+        self.fits_in_flight.add(loop_id)
+
+    def fit_finished(self, loop_id: str, now_s: float) -> None:
+        """A fit came back (accepted, refused, or failed: the loop is tried again after ``refresh_s``)."""
+        self.fits_in_flight.discard(loop_id)
+        self.fits[loop_id] = now_s
+        self.fits_done += 1
 
     def wanted(self, report: StictionReport, now_s: float) -> bool:
         """Whether this report's window should be sized (now if ``has_room``, else when a sizing ends)."""

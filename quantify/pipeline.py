@@ -45,7 +45,8 @@ FITTED_WARNING = (
 )
 UNFITTED_WARNING = (
     "the slips read from PV's steps were too noisy to trust, and this reader does not fit the valve to the whole "
-    "record (the agent leaves it out: seconds a window): `stiction quantify` on an export of this window fits it"
+    "record at once (seconds a window): the agent fits it in the background and the loop's next reports carry "
+    "the fitted reading where it is accepted; `stiction quantify` on an export of this window fits it"
 )
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "

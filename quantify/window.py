@@ -74,6 +74,10 @@ class Reading:
 
     __hash__ = None
 
+    def __reduce__(self):
+        """Pickled (a worker's reading sent back to the agent) with its layout shared again on arrival."""
+        return _unpickled, (self._layout, self._numbers, self._words, self.warnings, self.t_end_s)
+
     def __repr__(self) -> str:
         return f"Reading({self.fields!r}, {self.warnings!r}, {self.t_end_s!r})"
 
@@ -125,3 +129,10 @@ class Window:
             raise InputError(f"loop {self.loop_id}: sample time must be > 0 s, got {self.ts_s}")
         if self.process not in (None, "level"):
             raise InputError(f"loop {self.loop_id}: process {self.process!r} unknown, expected 'level' or none")
+
+
+def _unpickled(layout: tuple, numbers: bytes, words: tuple, warnings: tuple, t_end_s: float | None) -> Reading:
+    reading = Reading.__new__(Reading)
+    reading._layout = _LAYOUTS.setdefault(layout, layout)
+    reading._numbers, reading._words, reading.warnings, reading.t_end_s = numbers, words, warnings, t_end_s
+    return reading

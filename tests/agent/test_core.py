@@ -240,6 +240,38 @@ def test_a_sticky_loop_carries_its_friction_reading_for_estimate_every_reports()
     assert next_due().carry is None
 
 
+def test_a_fitted_reading_adopted_from_the_background_is_carried_until_it_expires():
+    from stiction.quantify.window import Reading
+
+    core = _core(estimate_every=2)
+    seq = 0
+
+    def next_due(now_s):
+        nonlocal seq
+        while True:
+            core.ingest(KEY, _payload(seq), JSON, float(seq))
+            seq += 10
+            due = [core.window(d) for d in core.due_loops(now_s)]
+            if due:
+                return due[0]
+
+    w = next_due(0.0)
+    assert not core.adopt("L1", Reading({"fs_pct": 1.0}), 99.0)  # not called sticky yet: nothing to carry
+    core.reported("L1", "stiction", Reading({"fs_pct": 12.0}, (), w.t_end_s), w.t_end_s)
+    fitted = Reading({"fs_pct": 12.5}, ("fitted",), w.t_end_s)
+    assert core.adopt("L1", fitted, keep_until_s=100.0)
+    carried = []
+    for now_s in (10.0, 20.0, 30.0, 100.0):
+        w = next_due(now_s)
+        carried.append(w.carry)
+        core.reported("L1", "stiction", None if w.carry is not None else Reading({"fs_pct": 13.0}), w.t_end_s)
+    # estimate_every (2) would read afresh at the second report; the fit is carried until 100 s, then read afresh
+    assert carried[:3] == [fitted] * 3 and carried[3] is None
+    core.reported("L1", "other_cause", None)  # no longer sticky: a fit coming back late is not taken
+    assert not core.adopt("L1", fitted, 1e9)
+    assert next_due(200.0).carry is None
+
+
 def test_fresh_readings_are_rationed_while_the_agent_is_behind_never_read_ones_first():
     from stiction.quantify.window import Reading
 

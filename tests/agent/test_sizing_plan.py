@@ -113,3 +113,20 @@ def test_a_loop_whose_stream_records_its_stem_has_it_checked_whatever_its_verdic
     plan.stem_finished("L2", None, now_s=10.0)  # a worker that failed: said, the verdict left alone
     r2 = plan.apply(_report("L2", verdict="no_oscillation"))
     assert r2.verdict == "no_oscillation" and any("measured stem failed" in w for w in r2.warnings)
+
+
+def test_a_sticky_level_loop_left_unfitted_is_fitted_and_refitted_after_the_refresh_sharing_the_workers():
+    from stiction.quantify.pipeline import FITTED_WARNING, UNFITTED_WARNING
+
+    plan = SizingPlan(refresh_s=600.0)
+    level = _report("F1", source="declared").model_copy(update={"warnings": [UNFITTED_WARNING]})
+    assert plan.fit_wanted(level, 0.0) and not plan.fit_wanted(_report("F2", source="declared"), 0.0)
+    assert not plan.fit_wanted(level.model_copy(update={"verdict": "other_cause"}), 0.0)
+    plan.fit_started("F1")
+    assert not plan.fit_wanted(level, 1.0)  # in flight
+    assert not plan.has_room()  # the one worker is busy: a sizing waits for the fit
+    plan.fit_finished("F1", 5.0)
+    assert plan.has_room() and plan.fits_done == 1
+    carried = level.model_copy(update={"warnings": [FITTED_WARNING]})  # its reports now carry the fit
+    assert not plan.fit_wanted(level, 600.0) and not plan.fit_wanted(carried, 600.0)
+    assert plan.fit_wanted(carried, 605.0) and plan.fit_wanted(level, 605.0)

@@ -47,3 +47,12 @@ def test_thousands_of_readings_hold_a_few_hundred_bytes_each():
     finally:
         tracemalloc.stop()
     assert per_reading < 600, per_reading
+
+
+def test_a_reading_sent_from_a_worker_process_comes_back_equal_and_shares_its_layout_again():
+    import pickle
+
+    reading = Reading(_fields(12.5), ("fitted",), 1000.0)
+    back = pickle.loads(pickle.dumps(reading))
+    assert back == reading and back.fields == reading.fields and back.warnings == ("fitted",)
+    assert back._layout is reading._layout  # one layout for thousands of readings, not one each
