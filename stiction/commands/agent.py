@@ -42,9 +42,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=60.0,
         metavar="MINUTES",
-        help="a loop called sticky whose process is unknown has it identified and S and J read under it, and a loop "
-        "whose stream carries the valve position (mv) has its stem checked against OP, in the background on "
-        "workers of lowered priority, once in this many minutes (default 60; 0: never)",
+        help="a loop called sticky whose process is unknown has it identified and S and J read under it, a loop "
+        "whose stream carries the valve position (mv) has its stem checked against OP, and a sticky level loop whose "
+        "slips PV's noise hides has its valve fitted to its window, in the background on workers of lowered "
+        "priority, once in this many minutes (default 60; 0: never)",
     )
     p.add_argument(
         "--size-workers",
