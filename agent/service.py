@@ -520,6 +520,7 @@ class AgentService:
             samples_filled=self.core.samples_filled,
             readings_deferred=self.core.readings_deferred,
             loops_sized=self.sizing.done if self.sizing is not None else 0,
+            loops_fitted=self.sizing.fits_done if self.sizing is not None else 0,
             cpu_s=self.cpu_profile(),
             messages_received=self.messages_received,
             shards_owned=len(self._owned),

@@ -358,6 +358,7 @@ def run_throughput(
         # the background sizing of sticky loops of unknown process, on a worker of lowered priority
         "sizing_worker_cpu_share": [(c1 - c0) / wall for c1, c0 in zip(children, children0, strict=True)],
         "loops_sized": sum(h.get("loops_sized", 0) for h in health.values()),
+        "loops_fitted": sum(h.get("loops_fitted", 0) for h in health.values()),
         "agent_peak_rss_mb": max(s[1] for s in stats),
         # the same over the live phase's second half (runs of four report intervals or more, no agent killed):
         # what an agent needs once its cold start (every loop's first reading) is over

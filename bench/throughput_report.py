@@ -103,7 +103,8 @@ def print_table(f: dict) -> None:
     print(
         f"  agent CPU {', '.join(f'{c:.0%}' for c in f['agent_cpu_share'])} of a core, "
         f"peak RSS {f['agent_peak_rss_mb']:.0f} MB; sizing worker "
-        f"{', '.join(f'{c:.0%}' for c in f['sizing_worker_cpu_share'])} of a core, {f['loops_sized']} loops sized"
+        f"{', '.join(f'{c:.0%}' for c in f['sizing_worker_cpu_share'])} of a core, {f['loops_sized']} loops sized, "
+        f"{f.get('loops_fitted', 0)} fitted"
     )
     print(f"  host: {f['host']['cpu']}, {f['host']['cpus']} cores")
     stages = f["agent_cpu_by_stage"]

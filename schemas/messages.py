@@ -102,6 +102,11 @@ class AgentHealth(BaseModel):
     loops_sized: int = Field(
         0, description="background sizings done: sticky loops of unknown process identified and S, J read under it"
     )
+    loops_fitted: int = Field(
+        0,
+        description="background fits done: sticky level loops whose slips PV's noise hides, the valve fitted to "
+        "the window (accepted or not)",
+    )
     messages_received: int = Field(
         0, description="sample messages received (of every loop on the keys this agent subscribes to, held or not)"
     )

@@ -36,6 +36,7 @@ def agent_line(h) -> str:
         f"{rates}, {h.reports} reports, p99 latency {p99}, rejected: {_counts(h.rejected)}"
         + (f", friction readings put off: {h.readings_deferred}" if h.readings_deferred else "")
         + (f", sticky loops sized under their identified process: {h.loops_sized}" if h.loops_sized else "")
+        + (f", noisy level loops' valves fitted: {h.loops_fitted}" if h.loops_fitted else "")
     )
 
 

@@ -70,6 +70,7 @@ def test_a_noisy_level_loops_next_reports_carry_the_valve_fitted_in_the_backgrou
     assert latest.t_end_s == first.t_end_s and latest.method == "physical" and FITTED_WARNING in latest.warnings
     assert abs(latest.fs_pct - spec.fs_pct) <= 2 * latest.fs_se_pct
     assert len(session.reports) == 1  # not published again
+    assert agent.health().loops_fitted == 1
 
     agent._inbox.append(_message("lvl", op[:1100], pv[:1100], 1000))
     agent.step()
