@@ -263,7 +263,7 @@ class Quantifier:
             elif method == "none" and level[i] and not np.isfinite(a.period_s[i]):
                 warnings.append(
                     "no estimate: OP has no period (its autocorrelation has no peak: a drift, or a single slip "
-                    "in the window), which every reading needs"
+                    "in the window), which the learned readings need, and no slips were read that can be trusted"
                 )
             elif method == "none" and level[i]:
                 warnings.append("no estimate: every reading withheld")

@@ -47,8 +47,14 @@ which called 14.5 % of those healthy loops sticky."""
 
 def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: int, ts_s: float) -> np.ndarray:
     """[W] bool: the windows whose physical reading may speak (a level loop, standard errors within
-    trust, no more slips than a cycle can have)."""
-    slip_limit = MAX_SLIPS_PER_PERIOD * n_samples * ts_s / np.where(np.isfinite(period_s), period_s, np.inf)
+    trust, no more slips than a cycle can have).  Where OP's autocorrelation finds no period (a slow stick-slip
+    of a few slips in the window), at most ``MAX_SLIPS_PER_PERIOD`` in the window; until 2026-11-30 (night)
+    none, and such a reading never spoke.  On 12,000 random loops of design seeds 3139-3158, 22 windows have no
+    period: 3 more are read (errors 0.16-0.21 pp, each within its two errors), none worse; of the 11 still
+    withheld, 4 never slipped."""
+    # where OP's autocorrelation finds no period, the window is taken as one: its slips are still bounded
+    period_or_window_s = np.where(np.isfinite(period_s), period_s, n_samples * ts_s)
+    slip_limit = MAX_SLIPS_PER_PERIOD * n_samples * ts_s / period_or_window_s
     trust = np.where(phys.segmented, SEGMENTED_MAX_SE_PCT, PHYSICAL_MAX_SE_PCT)
     return (
         level

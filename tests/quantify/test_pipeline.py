@@ -489,7 +489,8 @@ def test_a_healthy_level_loop_under_an_upstream_loops_square_or_triangle_cycle_i
 
 def test_a_sticky_window_without_a_period_says_that_is_why_it_has_no_numbers(quantifier):
     """A stem stuck for most of the window while OP drifts, then one slip into a cycle (a loop of the thesis
-    holdout): sticky, but OP's autocorrelation has no peak, which every reading needs; the report says so."""
+    holdout): sticky, but OP's autocorrelation has no peak, which the learned readings need, and the one slip reads
+    nothing; the report says so."""
     from stiction.bench.accuracy import HOLDOUT_SEED
     from stiction.sim.grid import random_loops
 
