@@ -35,6 +35,19 @@ def _line_rss_prefix(pv):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _second_difference_prefix(pv):
+    """Prefix sums of ``pv``'s squared second differences: ``out[k]`` sums those within samples ``0..k``."""
+    n = pv.size
+    out = np.zeros(n)
+    acc = 0.0
+    for k in range(2, n):
+        d2 = pv[k] - 2 * pv[k - 1] + pv[k - 2]
+        acc += d2 * d2
+        out[k] = acc
+    return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _line_rss(p1, pt, p2, k):
     """The RSS of samples ``0..k`` about their least-squares line (``_stretch_rss`` of the prefix sums; nothing
     under three samples)."""
@@ -87,7 +100,9 @@ def breakaways(op, band_pct, max_events, ks, ds):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def event_rss(op, pv, fs_lbf, stop_lbf, slip_share, gain_ts, lbf_per_pct, segment, max_events, ramp, cap_ratio):
+def event_rss(
+    op, pv, fs_lbf, stop_lbf, slip_share, gain_ts, lbf_per_pct, segment, max_events, ramp, cap_ratio, order=0
+):
     """[C] each candidate's least residual sum of squares over its first breakaways, and that breakaway's sample
     and direction ([C] each).
 
@@ -99,10 +114,15 @@ def event_rss(op, pv, fs_lbf, stop_lbf, slip_share, gain_ts, lbf_per_pct, segmen
     every stretch of ``segment`` samples counted from it (``ramp``: a free line in every stretch, a constant flow
     the valve does not make).  A candidate whose residual exceeds ``cap_ratio`` times the best of the candidates
     before it is left unfinished, inf (the search reads only residuals near its best: order the candidates best
-    guess first)."""
+    guess first).
+
+    ``order`` 2: the residual's second differences are summed instead (on either side of the breakaway, not
+    across it; ``segment`` and ``ramp`` do not apply, a line has none): the least squares of a noise that is a
+    random walk's integral, which a wandering inflow makes of the level."""
     n = op.size
     pv = pv - pv[0]  # offsets are free: small numbers keep the sums exact
     p1, pt, p2 = _line_rss_prefix(pv)
+    q2 = _second_difference_prefix(pv)
     out = np.empty(fs_lbf.size)
     best_k = np.zeros(fs_lbf.size, np.int64)
     best_d = np.zeros(fs_lbf.size, np.int64)
@@ -115,7 +135,7 @@ def event_rss(op, pv, fs_lbf, stop_lbf, slip_share, gain_ts, lbf_per_pct, segmen
         out[c] = cap
         for e in range(events):
             k1 = ks[e]
-            total = _line_rss(p1, pt, p2, k1)
+            total = q2[k1] if order == 2 else _line_rss(p1, pt, p2, k1)
             if total >= out[c]:
                 continue
             mv = op[k1] - ds[e] * stop_lbf[c] / lbf_per_pct
@@ -124,20 +144,31 @@ def event_rss(op, pv, fs_lbf, stop_lbf, slip_share, gain_ts, lbf_per_pct, segmen
             s2 = 0.0
             st = 0.0
             count = 0
+            r1 = 0.0
+            r2 = 0.0
             for k in range(k1 + 1, n):
                 r = pv[k] - level
-                s1 += r
-                s2 += r * r
-                st += count * r
-                count += 1
-                if count == segment or k == n - 1:
-                    total += _stretch_rss(s1, s2, st, count, ramp)
-                    s1 = 0.0
-                    s2 = 0.0
-                    st = 0.0
-                    count = 0
-                    if total >= out[c]:
-                        break
+                if order == 2:
+                    if k >= k1 + 3:
+                        d2 = r - 2 * r1 + r2
+                        total += d2 * d2
+                        if total >= out[c]:
+                            break
+                    r2 = r1
+                    r1 = r
+                else:
+                    s1 += r
+                    s2 += r * r
+                    st += count * r
+                    count += 1
+                    if count == segment or k == n - 1:
+                        total += _stretch_rss(s1, s2, st, count, ramp)
+                        s1 = 0.0
+                        s2 = 0.0
+                        st = 0.0
+                        count = 0
+                        if total >= out[c]:
+                            break
                 force = lbf_per_pct * (op[k] - mv)
                 flow = mv
                 if abs(force) > fs_lbf[c]:

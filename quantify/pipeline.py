@@ -41,7 +41,7 @@ STAGES = ("verdict", "readings", "report")
 """The pipeline's stages: data checks, evidence and verdict; INLPCA, slips and networks; the report's assembly."""
 FITTED_WARNING = (
     "physical reading fitted: the slips read from PV's steps were too noisy to trust, and the valve fitted to the "
-    "whole record (driven by its OP) leaves only PV's measurement noise, or a load's cycle"
+    "whole record (driven by its OP) leaves only PV's measurement noise, a load's cycle, or a wandering inflow's drift"
 )
 UNFITTED_WARNING = (
     "the slips read from PV's steps were too noisy to trust, and this reader does not fit the valve to the whole "
