@@ -71,6 +71,7 @@ def test_a_wandering_inflow_is_fitted_on_second_differences_and_read_within_its_
     fit = fitted.fit_window(r.op[0], r.pv[0])
     assert fit.accepted and fit.order == 2 and fit.variance_ratio < 1.5
     assert abs(fit.fs_pct - spec.fs_pct) <= 2 * fit.fs_se_pct and abs(fit.fd_pct - spec.fd_pct) <= 2 * fit.fd_se_pct
+    assert (fit.fs_se_pct, fit.fd_se_pct) >= fitted.DIFFERENCED_MIN_SE_PCT
 
 
 def test_the_kernels_breakaways_are_the_definitions():
