@@ -420,13 +420,7 @@ class AgentService:
     def _collect_fits(self) -> None:
         """Fits that came back: an accepted one's reading is carried in the loop's next reports, and its report
         put into the loop's latest for ``get`` where it is of the window last reported (not published again)."""
-        for future in [f for f in self._fits if f.done()]:
-            loop_id = self._fits.pop(future)
-            try:
-                fitted = future.result()
-            except Exception:  # a worker that died or failed costs this fit only
-                log.exception("background fit of %s's valve failed", loop_id)
-                fitted = None
+        for loop_id, fitted in self._came_back(self._fits, "fit of %s's valve"):
             now = time.monotonic()
             self.sizing.fit_finished(loop_id, now)
             if fitted is None or not self.core.owns(loop_id):
@@ -451,27 +445,28 @@ class AgentService:
         self._stems[future] = w.loop_id
         self.sizing.stem_started(w.loop_id)
 
-    def _collect_stems(self) -> None:
-        """Stem checks that came back: kept for the loop's next reports."""
-        for future in [f for f in self._stems if f.done()]:
-            loop_id = self._stems.pop(future)
+    @staticmethod
+    def _came_back(futures: dict, what: str):
+        """(what was kept with each job that is done, its result), taken out of ``futures``; a worker that died or
+        failed costs that job only: its result is None, and the log says which (``what`` of the loop id)."""
+        for future in [f for f in futures if f.done()]:
+            job = futures.pop(future)
             try:
                 result = future.result()
-            except Exception:  # a worker that died or failed costs this check only
-                log.exception("background check of %s's measured stem failed", loop_id)
+            except Exception:
+                log.exception("background %s failed", what % (job[0] if isinstance(job, tuple) else job))
                 result = None
+            yield job, result
+
+    def _collect_stems(self) -> None:
+        """Stem checks that came back: kept for the loop's next reports."""
+        for loop_id, result in self._came_back(self._stems, "check of %s's measured stem"):
             self.sizing.stem_finished(loop_id, result, time.monotonic())
 
     def _collect_sizings(self) -> None:
         """Sizings that came back: kept for the loop's next reports, and put into its latest report
         for ``get`` at once (not published again: a window is reported exactly once)."""
-        for future in [f for f in self._sizings if f.done()]:
-            loop_id, t_end_s = self._sizings.pop(future)
-            try:
-                sizing = future.result()
-            except Exception:  # a worker that died or failed costs this sizing only
-                log.exception("background sizing of %s failed", loop_id)
-                sizing = None
+        for (loop_id, t_end_s), sizing in self._came_back(self._sizings, "sizing of %s"):
             self.sizing.finished(loop_id, sizing, t_end_s, time.monotonic())
             draft = self.drafts.get(loop_id)
             if draft is None or not self.core.owns(loop_id):

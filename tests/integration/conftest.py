@@ -1,3 +1,4 @@
+import contextlib
 import subprocess
 import sys
 import threading
@@ -42,3 +43,54 @@ def quantifier():
     fit within that range (C4's first window: fs 70.38 as simulated, 69.91 with 2e-7 of noise added to PV; both
     within their errors of 0.4)."""
     return Quantifier(fit_valve=FIT_VALVE)
+
+
+@contextlib.contextmanager
+def replayed_to_an_agent(prefix: str, folder, agent_args=(), replay_args=()):
+    """An agent and ``stiction replay`` of ``folder`` on one key space, as a user starts them, with a session that
+    hears every report: yields (the session, the reports heard so far (a function), the processes).  The replay
+    has ended (rc 0) when it yields; the agent is left running (stop it to check its exit)."""
+    import zenoh
+
+    from stiction.bridge import zenoh_session
+    from stiction.schemas import keys
+    from stiction.schemas.report import StictionReport
+
+    endpoint = zenoh_session.free_loopback_endpoint()
+    reports: list[StictionReport] = []
+    lock = threading.Lock()
+
+    def on_report(sample):
+        with lock:
+            reports.append(StictionReport.model_validate_json(sample.payload.to_bytes()))
+
+    def heard() -> list[StictionReport]:
+        with lock:
+            return list(reports)
+
+    procs: dict = {}
+    with zenoh.open(zenoh_session.build([endpoint])) as session:
+        sub = session.declare_subscriber(keys.all_reports(prefix), on_report)
+        try:
+            common = ["--prefix", prefix, "--connect", endpoint]
+            listen = ["--listen", zenoh_session.free_loopback_endpoint()]
+            procs["agent"] = start_cli("agent", *agent_args, *common, *listen)
+            wait_until(
+                lambda: any(r.ok for r in session.liveliness().get(keys.all_agents(prefix), timeout=1)), 30, "agent"
+            )
+            procs["replay"] = start_cli("replay", str(folder), *replay_args, *common,
+                                        "--listen", zenoh_session.free_loopback_endpoint())  # fmt: skip
+            assert procs["replay"].wait(timeout=60) == 0
+            yield session, heard, procs
+        finally:
+            sub.undeclare()
+            kill_left_over(procs)
+
+
+def latest_report(session, prefix: str, loop_id: str):
+    """The loop's latest report as a ``get`` on its report key answers (None before any)."""
+    from stiction.schemas import keys
+    from stiction.schemas.report import StictionReport
+
+    got = [x.ok for x in session.get(keys.report(prefix, loop_id), timeout=2) if x.ok is not None]
+    return StictionReport.model_validate_json(got[0].payload.to_bytes()) if got else None
