@@ -113,6 +113,11 @@ DIFFERENCED_MIN_SE_PCT = (0.4, 0.1)
 slips' sizes and times alone.  On the 71 such readings of the design seeds (3131-3133) the errors' medians were
 0.039 and 0.012, their 95th percentiles 0.36 and 0.097, the largest 0.70 and 0.47; with ``MIN_SE_PCT``'s floors
 4 fell outside two errors, with these 2."""
+FEW_SLIPS = 20
+"""The least errors (``MIN_SE_PCT``, ``DIFFERENCED_MIN_SE_PCT``, ``SINUSOID_MIN_FD_SE_PCT``) were set on readings of
+20 slips and more (the 5th percentile of the 193 the design seeds 3131-3133 accepted; median 41).  A reading of
+fewer is read off fewer events: its least errors grow as ``sqrt(FEW_SLIPS / slips)``.  On 22 accepted readings of
+4-12 slips (design seeds 3134-3188, loops whose stem moved 1-11 times), 5 fell outside two errors before, 1 after."""
 MAX_LAG1 = 0.2
 """A fit on second differences (``Fit.order`` 2) leaves them white only where PV's noise is a random walk's
 integral: a white measurement noise leaves a lag-one correlation of -2/3, a random walk on PV -1/2.  On the design
@@ -269,6 +274,11 @@ def _best_start_residual(op, pv, fs_pct, fd_pct, ts_s, gain_per_s, order=0) -> t
                               order)  # fmt: skip
 
 
+def few_slips_widening(slips: int) -> float:
+    """How much wider a reading's least errors are for its ``slips`` (``FEW_SLIPS``): 1 from ``FEW_SLIPS`` up."""
+    return float(np.sqrt(FEW_SLIPS / slips)) if 0 < slips < FEW_SLIPS else 1.0
+
+
 def lag_one(residual: np.ndarray) -> float:
     """The lag-one autocorrelation of ``residual`` about its mean: about 0 (within 1/sqrt(n)) for white noise."""
     r = np.asarray(residual, float) - np.mean(residual)
@@ -368,12 +378,13 @@ def fit_one(op, pv, ts_s: float = 1.0, gain_per_s: float = LEVEL_GAIN_PER_S, ext
     # the medium stage's profile: the candidates within chi-square's 95 % band of its best
     s2 = rss.min() / (n - 4 if order == 2 else n - n // MEDIUM_SEGMENT - 2)
     inside = grid[rss <= rss.min() + 3.84 * s2]
-    se = np.maximum(np.ptp(inside, axis=0) / (2 * 1.96), DIFFERENCED_MIN_SE_PCT if order == 2 else MIN_SE_PCT)
+    residual, slips = _best_start_residual(op, pv, fs, fd, ts_s, gain_per_s, order)
+    floor = np.asarray(DIFFERENCED_MIN_SE_PCT if order == 2 else MIN_SE_PCT) * few_slips_widening(slips)
+    se = np.maximum(np.ptp(inside, axis=0) / (2 * 1.96), floor)
     sd = second_difference_sd(pv)  # the white noise only: no floor for a stepped record (ident.stem.pv_noise_sd)
     # the residual's variance over the noise's: a white noise's second differences have six times its variance, an
     # integrated random walk's are its steps
     ratio = rss_min / ((n - 4) * 6 * sd**2 if order == 2 else n * sd**2) if sd > 0 else np.inf
-    residual, slips = _best_start_residual(op, pv, fs, fd, ts_s, gain_per_s, order)
     return Fit(float(reading[0]), float(reading[1]), float(se[0]), float(se[1]), float(ratio), peak_share(residual),
                slips, best=(float(fs), float(fd)), order=order, lag1=lag_one(residual))  # fmt: skip
 
@@ -413,7 +424,7 @@ def _with_sinusoid(op, pv, first: Fit, extra, ts_s: float, gain_per_s: float) ->
     left = residual - sinusoid(residual, omega)
     left = left - left.mean()
     unexplained = float(np.sqrt(np.mean(left**2)) / max(float(np.std(pv)), 1e-12))
-    fd_se = max(fit.fd_se_pct, SINUSOID_MIN_FD_SE_PCT)
+    fd_se = max(fit.fd_se_pct, SINUSOID_MIN_FD_SE_PCT * few_slips_widening(slips))
     return Fit(fit.fs_pct, fit.fd_pct, fit.fs_se_pct, fd_se, fit.variance_ratio, peak_share(left), slips,
                omega / ts_s, unexplained, fit.best)  # fmt: skip
 
