@@ -57,6 +57,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from stiction.detect.oscillation import autocorrelation
 from stiction.ident.open_loop_kernel import event_rss
 from stiction.ident.stem import second_difference_sd
 from stiction.sim.process import LOOPS
@@ -280,10 +281,10 @@ def few_slips_widening(slips: int) -> float:
 
 
 def lag_one(residual: np.ndarray) -> float:
-    """The lag-one autocorrelation of ``residual`` about its mean: about 0 (within 1/sqrt(n)) for white noise."""
-    r = np.asarray(residual, float) - np.mean(residual)
-    power = float(np.sum(r * r))
-    return float(np.sum(r[1:] * r[:-1]) / power) if power > 0 else 0.0
+    """The lag-one autocorrelation of ``residual`` about its mean (``detect.oscillation.autocorrelation``): about 0
+    (within 1/sqrt(n)) for white noise; 0 for a residual that is all zero."""
+    r = float(autocorrelation(residual, 1)[0, 1])
+    return r if np.isfinite(r) else 0.0
 
 
 def peak_frequency(x: np.ndarray) -> float:
