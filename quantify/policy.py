@@ -65,6 +65,14 @@ def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: i
     )
 
 
+def possible(phys, op_range_pct: np.ndarray) -> np.ndarray:
+    """[W] bool: the windows whose physical reading (``phys``, its errors as read) a valve can have (``impossible``
+    finds no reason against it).  A slip reading within its trust can still read a band wider than OP moved: such a
+    reading is not trusted, and the valve is fitted to the record instead (``with_fitted``)."""
+    values = zip(phys.fs_pct, phys.fd_pct, phys.fs_se_pct, phys.fd_se_pct, op_range_pct, strict=True)
+    return np.array([impossible(*v) is None for v in values], bool)
+
+
 def with_fitted(phys, fit, rows: np.ndarray):
     """``phys`` (``quantify.physical.PhysicalReading``) with the fitted reading (``ident.open_loop``) in the windows
     ``rows`` [K] (indices; ``fit`` holds their readings in that order) where it was accepted, and which windows
