@@ -40,8 +40,9 @@ from stiction.schemas.report import StictionReport
 STAGES = ("verdict", "readings", "report")
 """The pipeline's stages: data checks, evidence and verdict; INLPCA, slips and networks; the report's assembly."""
 FITTED_WARNING = (
-    "physical reading fitted: the slips read from PV's steps were too noisy to trust, and the valve fitted to the "
-    "whole record (driven by its OP) leaves only PV's measurement noise, a load's cycle, or a wandering inflow's drift"
+    "physical reading fitted: the slips read from PV's steps were too noisy to trust or did not explain the record, "
+    "and the valve fitted to the whole record (driven by its OP) leaves only PV's measurement noise, a load's cycle, "
+    "or a wandering inflow's drift"
 )
 UNFITTED_WARNING = (
     "the slips read from PV's steps were too noisy to trust, and this reader does not fit the valve to the whole "
@@ -184,7 +185,11 @@ class Quantifier:
         fitted_ok = np.zeros(n, bool)
         fittable = use & level & ~physical_ok & (sticky | band)
         want = fittable if self.fit_valve else np.zeros(n, bool)
-        if want.any():  # the valve fitted to the record where no slip reading is trusted (``ident.open_loop``)
+        if self.fit_valve:  # a trusted slip reading is checked against the record, and fitted where it falls short
+            checked = np.flatnonzero(use & level & physical_ok & sticky)
+            short = [i for i in checked if not open_loop.explains(op[i], pv[i], phys.fs_pct[i], phys.fd_pct[i], ts_s)]
+            want[short] = True
+        if want.any():  # the valve fitted to the record where no slip reading is trusted or explains it
             rows = np.flatnonzero(want)
             seeds = np.stack([np.column_stack([phys.fs_pct[rows], phys.fd_pct[rows]]), learned[rows]], axis=1)
             fit = open_loop.read(op[rows], pv[rows], ts_s, extra=seeds)
