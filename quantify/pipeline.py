@@ -180,7 +180,7 @@ class Quantifier:
             learned[cycle_ok], spread[cycle_ok], ood[cycle_ok] = out["fs_fd_pct"], out["fs_fd_std_pct"], out["ood"]
         phys = a.physical
         physical_ok = policy.physical_trusted(phys, level, a.period_s, op.shape[1], ts_s)
-        physical_ok &= policy.possible(phys, np.ptp(op, axis=1))
+        physical_ok &= policy.possible(phys, np.ptp(op, axis=1), where=physical_ok)
         band = policy.band_read(phys, level)
         fitted_ok = np.zeros(n, bool)
         fittable = use & level & ~physical_ok & (sticky | band)

@@ -65,12 +65,16 @@ def physical_trusted(phys, level: np.ndarray, period_s: np.ndarray, n_samples: i
     )
 
 
-def possible(phys, op_range_pct: np.ndarray) -> np.ndarray:
+def possible(phys, op_range_pct: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
     """[W] bool: the windows whose physical reading (``phys``, its errors as read) a valve can have (``impossible``
-    finds no reason against it).  A slip reading within its trust can still read a band wider than OP moved: such a
-    reading is not trusted, and the valve is fitted to the record instead (``with_fitted``)."""
-    values = zip(phys.fs_pct, phys.fd_pct, phys.fs_se_pct, phys.fd_se_pct, op_range_pct, strict=True)
-    return np.array([impossible(*v) is None for v in values], bool)
+    finds no reason against it), asked only ``where`` (True elsewhere).  A slip reading within its trust can still
+    read a band wider than OP moved: such a reading is not trusted, and the valve is fitted to the record instead
+    (``with_fitted``)."""
+    out = np.ones(len(op_range_pct), bool)
+    for i in np.flatnonzero(np.ones(out.size, bool) if where is None else where):
+        why = impossible(phys.fs_pct[i], phys.fd_pct[i], phys.fs_se_pct[i], phys.fd_se_pct[i], op_range_pct[i])
+        out[i] = why is None
+    return out
 
 
 def with_fitted(phys, fit, rows: np.ndarray):

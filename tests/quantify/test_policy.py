@@ -113,6 +113,8 @@ def test_a_reading_no_valve_can_have_is_not_trusted_and_a_possible_one_is():
                            fs_se_pct=np.full(4, 0.1), fd_se_pct=np.full(4, 0.1))  # fmt: skip
     # a band S of 33 % of span (60 and 20 % of 500 lbf): possible where OP moved 40 %, not where it moved 20 %
     assert possible(phys, np.array([40.0, 20.0, 10.0, 10.0])).tolist() == [True, False, True, True]
+    asked = np.array([True, False, True, True])  # a window not asked about is not refused
+    assert possible(phys, np.array([40.0, 20.0, 10.0, 10.0]), where=asked).tolist() == [True, True, True, True]
 
 
 def test_a_trusted_slip_reading_of_a_band_wider_than_op_moved_is_fitted_instead():
