@@ -480,13 +480,15 @@ def explains(op, pv, fs_pct: float, fd_pct: float, ts_s: float = 1.0, gain_per_s
     op, pv = np.asarray(op, float), np.asarray(pv, float)
     residual, slips = _best_start_residual(op, pv, fs_pct, fd_pct, ts_s, gain_per_s)
     sd = second_difference_sd(pv)
-    ratio = float(np.mean(residual**2) / sd**2) if sd > 0 else np.inf
-    plain = Fit(fs_pct, fd_pct, np.nan, np.nan, ratio, peak_share(residual), slips)
+
+    def ratio(x: np.ndarray) -> float:  # its variance over the noise's
+        return float(np.mean(x**2) / sd**2) if sd > 0 else np.inf
+
+    plain = Fit(fs_pct, fd_pct, np.nan, np.nan, ratio(residual), peak_share(residual), slips)
     if plain.accepted:
         return True
     omega, left, unexplained, left_share = _cycle_out(residual, pv)
-    ratio = float(np.mean(left**2) / sd**2) if sd > 0 else np.inf
-    cycle = Fit(fs_pct, fd_pct, np.nan, np.nan, ratio, peak_share(left), slips, omega / ts_s, unexplained,
+    cycle = Fit(fs_pct, fd_pct, np.nan, np.nan, ratio(left), peak_share(left), slips, omega / ts_s, unexplained,
                 left_share=left_share)  # fmt: skip
     return cycle.accepted
 

@@ -180,11 +180,12 @@ class Quantifier:
             learned[cycle_ok], spread[cycle_ok], ood[cycle_ok] = out["fs_fd_pct"], out["fs_fd_std_pct"], out["ood"]
         phys = a.physical
         physical_ok = policy.physical_trusted(phys, level, a.period_s, op.shape[1], ts_s)
-        physical_ok &= policy.possible(phys, np.ptp(op, axis=1), where=physical_ok)
+        op_range_pct = np.ptp(op, axis=1)
+        physical_ok &= policy.possible(phys, op_range_pct, where=physical_ok)
         band = policy.band_read(phys, level)
         fitted_ok = np.zeros(n, bool)
         fittable = use & level & ~physical_ok & (sticky | band)
-        want = fittable if self.fit_valve else np.zeros(n, bool)
+        want = fittable & self.fit_valve  # a new array: ``fittable`` itself says below what was left unfitted
         if self.fit_valve:  # a trusted slip reading is checked against the record, and fitted where it falls short
             checked = np.flatnonzero(use & level & physical_ok & sticky)
             short = [i for i in checked if not open_loop.explains(op[i], pv[i], phys.fs_pct[i], phys.fd_pct[i], ts_s)]
@@ -259,7 +260,7 @@ class Quantifier:
                 ("thesis", thesis_ok[i], thesis[i, 0], thesis[i, 1], np.nan, np.nan),
             ]
             method, estimate, shown, why_not = policy.choose(
-                candidates, float(np.ptp(op[i])), verdict.verdict, level[i]
+                candidates, float(op_range_pct[i]), verdict.verdict, level[i]
             )
             warnings += why_not
             if verdict.verdict != "stiction" and verdict.verdict != "bad_data":
