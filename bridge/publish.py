@@ -21,6 +21,11 @@ from stiction.schemas import keys
 log = logging.getLogger(__name__)
 
 DEFAULT_LAST = 1000
+FIRST_ROUTE_WAIT_S = 2.0
+"""The first loop's first batch waits this long at most for a subscriber to be known (Zenoh's matching status): a
+publisher started beside an agent that has just connected sent its first batches before the agent's subscription
+reached it, and they were lost (a 1,000-sample export into an agent whose first window is 1,000 then reported
+nothing).  Without a subscriber the publisher goes on after the wait."""
 STAGGER_STEP_S = 0.05
 """A publisher sends its loops' batches in groups this far apart over each message interval."""
 
@@ -70,6 +75,8 @@ class SamplePublisher:
                 encoding=self._zenoh.Encoding.APPLICATION_JSON,
                 congestion_control=self._zenoh.CongestionControl.BLOCK,
             )
+            if len(self._publishers) == 1:
+                _wait_for_a_subscriber(pub, FIRST_ROUTE_WAIT_S)
         pub.put(encode(batch))
         if self.history is not None:
             self.history.record(batch)
@@ -91,3 +98,17 @@ class SamplePublisher:
         if self._queryable is not None:
             self._queryable.undeclare()
             self._queryable = None
+
+
+def _wait_for_a_subscriber(publisher, timeout_s: float) -> bool:
+    """Whether a subscriber matched ``publisher`` within ``timeout_s`` (an Event's wait paces the polling)."""
+    import threading
+    import time
+
+    tick = threading.Event()
+    deadline = time.monotonic() + timeout_s
+    while not publisher.matching_status.matching:
+        if time.monotonic() > deadline:
+            return False
+        tick.wait(0.01)
+    return True
