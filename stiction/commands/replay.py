@@ -21,6 +21,7 @@ from stiction.schemas import keys
 from stiction.schemas.errors import InputError
 
 FIELDS = ("op", "pv", "t", "sp", "mv", "mode")
+WAIT_S = 5.0
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -30,6 +31,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ts", type=float, help="sample time [s] for files without a time column (default 1)")
     p.add_argument("--process", choices=["level"], help="declare every replayed loop the canonical level loop")
     add_pv_span(p)
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=WAIT_S,
+        metavar="S",
+        help=f"seconds to wait, before the first batch, for every loop to have a subscriber (an agent, a "
+        f"dashboard): a replay started beside an agent that is still connecting lost its first batches; "
+        f"0: start at once (default {WAIT_S:g})",
+    )
     p.add_argument("--status-every", type=float, default=10.0, help="seconds between status lines (0: none)")
     zenoh_config.add_arguments(p)
     zenoh_config.add_publisher_arguments(p)
@@ -77,6 +87,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.speed <= 0 or args.rate <= 0:
         raise InputError("--speed and --rate must be positive")
+    if not args.wait >= 0:
+        raise InputError("--wait must be 0 or more seconds")
     span = check_span(args.pv_span)  # before any file: a bad range is the command's error
     tracks, failed = read_tracks(args.paths, args.ts, args.process, pv_span=span)
     if not tracks:
@@ -98,6 +110,11 @@ def run(args: argparse.Namespace) -> int:
     with zenoh_config.open_from_args(args) as session:
         out = zenoh_config.publisher(args, session)
         try:
+            if args.wait > 0:
+                heard = out.wait_for_subscribers([t.loop_id for t in tracks], args.wait, stop)
+                if heard < len(tracks):
+                    print(f"replay: {len(tracks) - heard} of {len(tracks)} loops have no subscriber after "
+                          f"{args.wait:g} s; replaying anyway", file=sys.stderr)  # fmt: skip
             sent = publish(schedule, out, stop, args.rate, args.status_every)
         finally:
             out.close()

@@ -232,6 +232,7 @@ def test_the_bridge_answers_a_bad_loop_file_or_flag_with_one_line(tmp_path, caps
         (["plant", "--loop-file", "/no/such/dir/loops.toml"], "no such directory"),
         (["replay", "--speed", "0", "x.csv"], "--speed and --rate must be positive"),
         (["replay", "nope.csv"], "nope.csv: no such file"),
+        (["replay", "--wait", "nan", "x.csv"], "--wait must be 0 or more seconds"),
     ],
 )
 def test_plant_and_replay_answer_bad_flags_with_one_line(capsys, argv, expected):
