@@ -14,6 +14,7 @@ import numpy as np
 from stiction import zenoh_config
 from stiction.bridge import zenoh_session
 from stiction.commands.agent import open_sink
+from stiction.commands.replay import WAIT_S as REPLAY_WAIT_S
 from stiction.commands.replay import publish as replay
 from stiction.commands.replay import read_tracks
 from stiction.commands.sim import stop_on_signals
@@ -234,7 +235,13 @@ def run(args: argparse.Namespace) -> int:
         if tracks:
             schedule = Schedule(tracks, args.speed)
             replayed = SamplePublisher(sim_s, args.prefix)
-            threads.append(threading.Thread(target=replay, args=(schedule, replayed, stop, 4.0), daemon=True))
+            ids = [t.loop_id for t in tracks]
+
+            def play() -> None:  # a measured window's first samples matter: not sent before the agent subscribed
+                replayed.wait_for_subscribers(ids, REPLAY_WAIT_S, stop)
+                replay(schedule, replayed, stop, 4.0)
+
+            threads.append(threading.Thread(target=play, daemon=True))
         started = time.monotonic()
         for t in threads:
             t.start()
