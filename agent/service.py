@@ -153,6 +153,7 @@ class AgentService:
         self._fits: dict = {}  # future -> loop_id: the windows being fitted (``quantify.refit``)
         self._stems: dict = {}  # future -> loop_id: the measured stems being checked
         self._size_queue: dict[str, bool] = {}  # loops waiting for the worker (True: a fit), in the order they asked
+        self._check_queue: dict[str, None] = {}  # loops whose slip reading waits to be checked, after the others
         self._shard_subs: dict[str, object] = {}  # key expression -> subscriber (a channel)
         self._spec_samples = None  # the subscriber (a channel) to the spec's sample key
         self._owned: set[int] = set()
@@ -364,6 +365,8 @@ class AgentService:
                     self._size_or_queue(w)
                 elif self.sizing.fit_wanted(draft, time.monotonic()):
                     self._size_or_queue(w, fit=True)
+                elif self.sizing.check_wanted(draft, result.unchecked, time.monotonic()):
+                    self._check_or_queue(w)
                 if self.sizing.stem_wanted(w.loop_id, w.mv is not None, len(w.op), time.monotonic()):
                     self._check_stem(w)
                 report = self.sizing.apply(draft, self.settings.agent_id)
@@ -398,6 +401,15 @@ class AgentService:
         else:
             self._size_queue.pop(w.loop_id, None)  # in the order loops last asked
             self._size_queue[w.loop_id] = fit
+
+    def _check_or_queue(self, w) -> None:
+        """Check the window's trusted slip reading against the record on a worker (a fit where it falls short) if a
+        worker is free and no sizing or fit waits, else queue the loop behind them."""
+        if self.sizing.has_room() and not self._size_queue:
+            self._fit(w)
+        else:
+            self._check_queue.pop(w.loop_id, None)
+            self._check_queue[w.loop_id] = None
 
     @staticmethod
     def _job(w) -> tuple:
@@ -476,10 +488,17 @@ class AgentService:
         self._start_queued()
 
     def _start_queued(self) -> None:
-        """The queued loops' sizings and fits, as workers come free, each on the loop's window as it is now."""
-        while self._size_queue and self.sizing.has_room():
-            loop_id = next(iter(self._size_queue))
-            fit = self._size_queue.pop(loop_id)
+        """The queued loops' sizings and fits, then their slip readings' checks, as workers come free, each on the
+        loop's window as it is now."""
+        while (self._size_queue or self._check_queue) and self.sizing.has_room():
+            if self._size_queue:
+                loop_id = next(iter(self._size_queue))
+                fit = self._size_queue.pop(loop_id)
+            else:
+                loop_id, fit = next(iter(self._check_queue)), True
+                del self._check_queue[loop_id]
+                if not self.sizing.fit_due(loop_id, time.monotonic()):
+                    continue  # fitted meanwhile (its reading was left unfitted since)
             w = self.core.window_of(loop_id)
             if w is None:  # handed to another agent, or its window restarted empty
                 continue

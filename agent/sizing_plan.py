@@ -13,7 +13,9 @@ stem checked against OP the same way (``quantify.stem``, a fraction of a second 
 ``refresh_s`` whatever its verdict, every report carrying the last check.  A noisy level loop whose report went out
 without the fitted reading (``quantify.pipeline.UNFITTED_WARNING``: a fit takes seconds) has its window fitted the
 same way (``quantify.refit``), again every ``refresh_s`` while it stays sticky; the agent's core carries an accepted
-fit's reading in its reports (``agent.core.AgentCore.adopt``).  Pure: no clock, no processes.
+fit's reading in its reports (``agent.core.AgentCore.adopt``).  A level loop whose trusted slip reading went out
+unchecked against the record is checked the same way, once every ``refresh_s``, after every other job waiting: where
+the record does not bear the reading out, the worker fits the valve.  Pure: no clock, no processes.
 """
 
 from __future__ import annotations
@@ -65,11 +67,25 @@ class SizingPlan:
     def fit_wanted(self, report: StictionReport, now_s: float) -> bool:
         """Whether this sticky report's window should be fitted: its reading was left unfitted, or it carries a fit
         older than ``refresh_s`` (refitted while the loop stays sticky)."""
-        if report.verdict != "stiction" or report.loop_id in self.fits_in_flight:
-            return False
         if UNFITTED_WARNING not in report.warnings and FITTED_WARNING not in report.warnings:
             return False
-        last = self.fits.get(report.loop_id)
+        return self._fit_due(report, now_s)
+
+    def check_wanted(self, report: StictionReport, unchecked: bool, now_s: float) -> bool:
+        """Whether this sticky report's slip reading, trusted but ``unchecked`` against the record
+        (``quantify.pipeline.Result``), should be checked by a fit on a worker, as ``stiction quantify`` checks
+        it: once every ``refresh_s``, after the fits and sizings waiting (the agent's ``_check_queue``).  A
+        check is a fit where the record does not bear the reading out, else a few tens of ms."""
+        return unchecked and self._fit_due(report, now_s)
+
+    def _fit_due(self, report: StictionReport, now_s: float) -> bool:
+        return report.verdict == "stiction" and self.fit_due(report.loop_id, now_s)
+
+    def fit_due(self, loop_id: str, now_s: float) -> bool:
+        """Whether the loop's window is neither being fitted nor was fitted (or checked) within ``refresh_s``."""
+        if loop_id in self.fits_in_flight:
+            return False
+        last = self.fits.get(loop_id)
         return last is None or now_s - last >= self.refresh_s
 
     def fit_started(self, loop_id: str) -> None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +78,9 @@ class Result:
     reading: Reading | None = None
     """The friction reading made from this very window (None where the verdict is not stiction, or
     where the window carried an earlier reading)."""
+    unchecked: bool = False
+    """The reading rests on a trusted slip reading that this quantifier did not check against the record
+    (``fit_valve`` off): a worker's fit checks it as ``stiction quantify`` does (``quantify.refit``)."""
 
     @property
     def report(self) -> StictionReport:
@@ -186,8 +189,9 @@ class Quantifier:
         fitted_ok = np.zeros(n, bool)
         fittable = use & level & ~physical_ok & (sticky | band)
         want = fittable & self.fit_valve  # a new array: ``fittable`` itself says below what was left unfitted
+        slips_trusted = use & level & physical_ok & sticky
         if self.fit_valve:  # a trusted slip reading is checked against the record, and fitted where it falls short
-            checked = np.flatnonzero(use & level & physical_ok & sticky)
+            checked = np.flatnonzero(slips_trusted)
             short = [i for i in checked if not open_loop.explains(op[i], pv[i], phys.fs_pct[i], phys.fd_pct[i], ts_s)]
             want[short] = True
         if want.any():  # the valve fitted to the record where no slip reading is trusted or explains it
@@ -285,13 +289,14 @@ class Quantifier:
             reading = None
             if verdict.verdict == "stiction":
                 reading = Reading({k: getattr(draft, k) for k in READING_FIELDS}, tuple(warnings[fresh:]), w.t_end_s)
-            results.append(Result(draft, None, reading))
+            unchecked = reading is not None and bool(slips_trusted[i]) and not self.fit_valve
+            results.append(Result(draft, None, reading, unchecked))
         self._lap("report", clock)
         if not details:
             return results
         angles = np.linspace(-np.pi, np.pi, 129)  # closed: the last point repeats the first
         curves = a.fit.curve(np.broadcast_to(angles, (n, angles.size)))
-        return [Result(r.draft, Details(curves[i], a.fit.denoised[i]), r.reading) for i, r in enumerate(results)]
+        return [replace(r, details=Details(curves[i], a.fit.denoised[i])) for i, r in enumerate(results)]
 
     def _lap(self, stage: str, since: float) -> float:
         now = time.thread_time()

@@ -130,3 +130,14 @@ def test_a_sticky_level_loop_left_unfitted_is_fitted_and_refitted_after_the_refr
     carried = level.model_copy(update={"warnings": [FITTED_WARNING]})  # its reports now carry the fit
     assert not plan.fit_wanted(level, 600.0) and not plan.fit_wanted(carried, 600.0)
     assert plan.fit_wanted(carried, 605.0) and plan.fit_wanted(level, 605.0)
+
+
+def test_a_trusted_slip_reading_is_checked_once_a_refresh_and_not_while_its_window_is_being_fitted():
+    plan = SizingPlan(refresh_s=600.0)
+    slips = _report("C1", source="declared")
+    assert plan.check_wanted(slips, True, 0.0) and not plan.check_wanted(slips, False, 0.0)
+    assert not plan.check_wanted(slips.model_copy(update={"verdict": "other_cause"}), True, 0.0)
+    plan.fit_started("C1")
+    assert not plan.check_wanted(slips, True, 1.0) and not plan.fit_due("C1", 1.0)
+    plan.fit_finished("C1", 5.0)  # checked (explained, or fitted): not again before the refresh
+    assert not plan.check_wanted(slips, True, 604.0) and plan.check_wanted(slips, True, 605.0)
