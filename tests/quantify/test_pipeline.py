@@ -524,8 +524,9 @@ windows.append(Window("noise", rng.normal(50, 1, 1000), rng.normal(50, 1, 1000))
 for i, (op, pv, sp, _) in enumerate(simulate_plant(plant_loops(2, 11), 0.5, 1000)):  # every class, setpoints
     if stable(op, pv):
         windows.append(Window(f"P{i}", op.astype(np.float32), pv.astype(np.float32), 1.0, 1000.0, sp=sp))
-quantifier = pipeline.Quantifier()
-pipeline.warm_up()
+from stiction.agent.service import FIT_VALVE
+quantifier = pipeline.Quantifier(fit_valve=FIT_VALVE)  # as the agent runs it: its fits are the workers'
+pipeline.warm_up(FIT_VALVE)
 print(*[k.__name__ for k in (p.stem_from_flow, p.piece_means, detect_kernels.median, kernels.segment_row)
         if not k.signatures])
 
