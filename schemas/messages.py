@@ -105,7 +105,8 @@ class AgentHealth(BaseModel):
     loops_fitted: int = Field(
         0,
         description="background fits done: sticky level loops whose slips PV's noise hides, the valve fitted to "
-        "the window (accepted or not)",
+        "the window (accepted or not), and trusted slip readings checked against the window (a fit where the "
+        "record does not bear the reading out)",
     )
     messages_received: int = Field(
         0, description="sample messages received (of every loop on the keys this agent subscribes to, held or not)"
