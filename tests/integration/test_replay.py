@@ -79,3 +79,20 @@ def test_the_demo_shows_replayed_measured_loops_beside_the_simulated_ones(tmp_pa
     assert done.returncode == 0, done.stderr
     assert "measured loops (replayed)" in done.stdout
     assert "measured loops: 3 of 3 reported" in done.stdout and "of 3 labelled" in done.stdout
+
+
+def test_a_replay_nobody_subscribes_to_waits_as_long_as_told_says_so_and_replays_anyway(tmp_path):
+    import time
+
+    rows = "\n".join(f"{t},{50 + (t % 7)},{50 + (t % 5)}" for t in range(300))
+    (tmp_path / "FIC1.csv").write_text("t,op,pv\n" + rows + "\n")
+    t0 = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.cli", "replay", str(tmp_path), "--speed", "5000", "--wait", "1.5",
+         "--prefix", PREFIX, "--listen", zenoh_session.free_loopback_endpoint()],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "1 of 1 loops have no subscriber after 1.5 s; replaying anyway" in done.stderr
+    assert "300 samples of 1 loops sent" in done.stderr
+    assert time.monotonic() - t0 >= 1.5
