@@ -49,19 +49,24 @@ def _message(loop_id, op, pv, seq):
     return keys.samples(PREFIX, loop_id), json.dumps(body).encode(), "application/json", time.monotonic(), False
 
 
+def _agent(pool):
+    core = CoreSettings(prefix=PREFIX, window_samples=1000, first_report_samples=1000, report_every_samples=100,
+                        stagger=False)  # fmt: skip
+    session = _Session()
+    agent = AgentService(AgentSettings("agent-a", core, size_every_s=600.0), session)
+    agent._pool = lambda: pool
+    agent._alive = {"agent-a"}
+    agent.core.set_agents({"agent-a"})
+    return agent, session
+
+
 def test_a_noisy_level_loops_next_reports_carry_the_valve_fitted_in_the_background():
     spec = LoopSpec(62.3, 21.7, disturbance=Disturbance("gaussian", "output", 0.25), seed=11)
     r = simulate([spec], duration_s=DURATION_S + 100.0).kept()
     op, pv = r.op[0], r.pv[0]
     assert op.size >= 1100
-    core = CoreSettings(prefix=PREFIX, window_samples=1000, first_report_samples=1000, report_every_samples=100,
-                        stagger=False)  # fmt: skip
-    session = _Session()
-    agent = AgentService(AgentSettings("agent-a", core, size_every_s=600.0), session)
     pool = _InlinePool()
-    agent._pool = lambda: pool
-    agent._alive = {"agent-a"}
-    agent.core.set_agents({"agent-a"})
+    agent, session = _agent(pool)
 
     agent._inbox.append(_message("lvl", op[:1000], pv[:1000], 0))
     agent.step()
@@ -87,14 +92,8 @@ def test_a_fit_whose_worker_dies_costs_that_fit_only():
     spec = LoopSpec(62.3, 21.7, disturbance=Disturbance("gaussian", "output", 0.25), seed=11)
     r = simulate([spec], duration_s=DURATION_S + 100.0).kept()
     op, pv = r.op[0], r.pv[0]
-    core = CoreSettings(prefix=PREFIX, window_samples=1000, first_report_samples=1000, report_every_samples=100,
-                        stagger=False)  # fmt: skip
-    session = _Session()
-    agent = AgentService(AgentSettings("agent-a", core, size_every_s=600.0), session)
     pool = _InlinePool(fails=True)
-    agent._pool = lambda: pool
-    agent._alive = {"agent-a"}
-    agent.core.set_agents({"agent-a"})
+    agent, session = _agent(pool)
     agent._inbox.append(_message("lvl", op[:1000], pv[:1000], 0))
     agent.step()
     agent.step()  # the failed fit is collected: counted, nothing adopted, the agent goes on
@@ -104,17 +103,6 @@ def test_a_fit_whose_worker_dies_costs_that_fit_only():
     second = session.reports[-1]
     assert len(session.reports) == 2 and second.verdict == "stiction" and FITTED_WARNING not in second.warnings
     assert pool.jobs == 1  # tried again after the refresh, not at once
-
-
-def _agent(pool):
-    core = CoreSettings(prefix=PREFIX, window_samples=1000, first_report_samples=1000, report_every_samples=100,
-                        stagger=False)  # fmt: skip
-    session = _Session()
-    agent = AgentService(AgentSettings("agent-a", core, size_every_s=600.0), session)
-    agent._pool = lambda: pool
-    agent._alive = {"agent-a"}
-    agent.core.set_agents({"agent-a"})
-    return agent, session
 
 
 def test_a_trusted_slip_reading_the_record_does_not_bear_out_is_checked_on_a_worker_and_the_fit_carried():
@@ -163,13 +151,9 @@ def test_a_slip_reading_the_record_bears_out_is_checked_once_a_refresh_and_kept(
 
 
 class _HeldPool:
-    """Holds every job (a worker still busy); says what was asked, in order."""
-
-    def __init__(self):
-        self.asked: list[str] = []
+    """Holds every job: a worker still busy until the test sets the job's result."""
 
     def submit(self, fn, *args):
-        self.asked.append(fn.__name__)
         return Future()
 
 
@@ -178,8 +162,7 @@ def test_a_check_waits_behind_the_fits_and_sizings_asked_after_it():
 
     sine = simulate([random_loops(44, 3131)[43]]).kept()
     noisy = simulate([LoopSpec(62.3, 21.7, disturbance=Disturbance("gaussian", "output", 0.25), seed=11)]).kept()
-    pool = _HeldPool()
-    agent, session = _agent(pool)
+    agent, _ = _agent(_HeldPool())
     agent.sizing.max_in_flight = 1
     agent._inbox.append(_message("busy", noisy.op[0], noisy.pv[0], 0))
     agent.step()  # the one worker busy with its fit
