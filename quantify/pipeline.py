@@ -58,6 +58,12 @@ THINNED_WARNING = (
     "loops the detector was trained on, recorded at their usual sample times, and read at every sample the record "
     "would look slower than any of them; the friction numbers read every sample"
 )
+NO_SETPOINT_WARNING = (
+    "no setpoint (SP) in the record: the verdict reads PV's deviation from its own level, and the stuck-valve test "
+    "on setpoint steps cannot run (a valve that stays put after a setpoint step while OP winds up); with SP, 7 more "
+    "of the 27 windows labelled sticky in the shared measured data are called. Export SP with OP and PV where the "
+    "historian has it"
+)
 READING_FIELDS = (
     "fs_pct", "fd_pct", "s_pct", "j_pct", "s_se_pct", "j_se_pct", "stiction_kind", "fs_se_pct", "fd_se_pct",
     "denoised", "method", "thesis", "physical", "learned", "ood_score", "explained", "estimate_t_end_s",
@@ -224,6 +230,8 @@ class Quantifier:
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
             if steps[i] > 1:
                 warnings.append(THINNED_WARNING.format(step=int(steps[i]), ts_s=ts_s * steps[i]))
+            if w.sp is None and read[i]:
+                warnings.append(NO_SETPOINT_WARNING)
             if verdict.verdict == "stiction" and verdict.sequence:
                 warnings.append(verdict.sequence)
             if verdict is not verdicts[i]:
