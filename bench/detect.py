@@ -151,22 +151,8 @@ def _two_parameter_set(n_per_cause: int, seed: int, samples: int | None = None):
     rows = []
     for loop, rec in zip(loops, two_parameter.simulate(loops, samples or two_parameter.SAMPLES), strict=True):
         if stable(rec):
-            blocked = _blocked(rec.op, rec.pv)
-            read = rec if blocked else _as_the_verdict_reads(rec)  # its records are long enough to be thinned
-            rows.append((loop, read, evidence(read.op, read.pv, read.ts_s, read.sp), blocked))
+            rows.append((loop, rec, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), _blocked(rec.op, rec.pv)))
     return rows
-
-
-def _as_the_verdict_reads(rec):
-    """The record as ``stiction quantify``'s verdict reads it: thinned where it is long and slower than the families'
-    windows (``detect.timescale``), its label kept."""
-    from stiction.detect import timescale
-
-    step = int(timescale.verdict_steps(rec.pv)[0])
-    if step == 1:
-        return rec
-    return replace(rec, op=timescale.thinned(rec.op, step), pv=timescale.thinned(rec.pv, step),
-                   sp=timescale.thinned(rec.sp, step), ts_s=rec.ts_s * step)  # fmt: skip
 
 
 def _method_rows(calls: list[dict], truth: np.ndarray, oscillating: np.ndarray, held: np.ndarray) -> dict:
