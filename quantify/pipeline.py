@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stiction.detect import features, sequence, timescale
+from stiction.detect import features, sequence
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide_rows
 from stiction.ident import controller, open_loop
 from stiction.ident.checks import blocking, data_checks_rows
@@ -52,11 +52,6 @@ UNFITTED_WARNING = (
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"
-)
-THINNED_WARNING = (
-    "the verdict read one sample in {step} (one every {ts_s:.4g} s): PV's course changes over more samples than the "
-    "loops the detector was trained on, recorded at their usual sample times, and read at every sample the record "
-    "would look slower than any of them; the friction numbers read every sample"
 )
 NO_SETPOINT_WARNING = (
     "no setpoint (SP) in the record: the verdict reads PV's deviation from its own level, and the stuck-valve test "
@@ -163,25 +158,16 @@ class Quantifier:
         level = declared | identified
         problems_all = data_checks_rows(op, pv)
         blocked = [[c.message for c in blocking(problems)] for problems in problems_all]
-        # a window that is not the canonical loop's (its own models read it, at its own sampling), and whose data are
-        # read: the window network speaks there, and a record sampled faster than the families is read thinned
-        read = ~level & np.array([not said for said in blocked])
-        steps = np.ones(n, int)
-        if read.any():
-            steps[read] = timescale.verdict_steps(pv[read])
         evs = features.evidence_rows(op, pv, ts_s, sps)
         seq = np.full(n, np.nan)
-        for step in np.unique(steps):
-            idx = np.flatnonzero(steps == step)
-            o, p, s = timescale.thinned(op[idx], step), timescale.thinned(pv[idx], step), [
-                None if sps[i] is None else timescale.thinned(sps[i], step) for i in idx]  # fmt: skip
-            if step > 1:
-                for i, ev in zip(idx, features.evidence_rows(o, p, ts_s * step, s), strict=True):
-                    evs[i] = ev
-            net = read[idx] if self.window_net is not None else np.zeros(idx.size, bool)
-            if net.any():
-                seq[idx[net]] = sequence_probabilities(
-                    self.window_net, o[net], p[net], [s[j] for j in np.flatnonzero(net)], self.sequence_chunks
+        if self.window_net is not None:
+            # only where the network speaks: a window that is not the canonical loop's (its own model reads it), and
+            # whose data are read
+            read = ~level & np.array([not said for said in blocked])
+            if read.any():
+                idx = np.flatnonzero(read)
+                seq[idx] = sequence_probabilities(
+                    self.window_net, op[idx], pv[idx], [sps[i] for i in idx], self.sequence_chunks
                 )
         verdicts = decide_rows(self.detector, evs, blocked, level, seq)
         clock = self._lap("verdict", clock)
@@ -228,9 +214,7 @@ class Quantifier:
             if band[i]:
                 verdict = policy.called_by_band(verdict, float(phys.fs_pct[i]), float(phys.fs_se_pct[i]))
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
-            if steps[i] > 1:
-                warnings.append(THINNED_WARNING.format(step=int(steps[i]), ts_s=ts_s * steps[i]))
-            if w.sp is None and read[i]:
+            if w.sp is None and not level[i] and not blocked[i]:
                 warnings.append(NO_SETPOINT_WARNING)
             if verdict.verdict == "stiction" and verdict.sequence:
                 warnings.append(verdict.sequence)
