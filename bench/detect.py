@@ -151,8 +151,27 @@ def _two_parameter_set(n_per_cause: int, seed: int, samples: int | None = None):
     rows = []
     for loop, rec in zip(loops, two_parameter.simulate(loops, samples or two_parameter.SAMPLES), strict=True):
         if stable(rec):
-            rows.append((loop, rec, evidence(rec.op, rec.pv, rec.ts_s, rec.sp), _blocked(rec.op, rec.pv)))
+            blocked = _blocked(rec.op, rec.pv)
+            ev = evidence(rec.op, rec.pv, rec.ts_s, rec.sp)
+            if not blocked:  # its records are long enough for a long cycle to be read thinned, as the verdict does
+                rec, ev = _as_the_verdict_reads(rec, ev)
+            rows.append((loop, rec, ev, blocked))
     return rows
+
+
+def _as_the_verdict_reads(rec, ev):
+    """(record, evidence) as ``stiction quantify``'s verdict reads them: thinned where the record cycles more slowly
+    than any training window (``detect.thinning``), the label kept."""
+    from stiction.detect import thinning
+    from stiction.detect.features import evidence
+
+    period = ev.oscillation.period_s / rec.ts_s if ev.oscillation.oscillating else 0.0
+    step = int(thinning.verdict_steps(np.array([period]), len(rec.op))[0])
+    if step == 1:
+        return rec, ev
+    thin = replace(rec, op=thinning.thinned(rec.op, step), pv=thinning.thinned(rec.pv, step),
+                   sp=thinning.thinned(rec.sp, step), ts_s=rec.ts_s * step)  # fmt: skip
+    return thin, evidence(thin.op, thin.pv, thin.ts_s, thin.sp)
 
 
 def _method_rows(calls: list[dict], truth: np.ndarray, oscillating: np.ndarray, held: np.ndarray) -> dict:

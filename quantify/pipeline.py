@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stiction.detect import features, sequence
+from stiction.detect import features, sequence, thinning
 from stiction.detect.verdict import DETECTOR_FILE, Detector, decide_rows
 from stiction.ident import controller, open_loop
 from stiction.ident.checks import blocking, data_checks_rows
@@ -52,6 +52,11 @@ UNFITTED_WARNING = (
 DEFERRED_WARNING = (
     "friction not read in this report: the agent is catching up and reads a share of its sticky loops "
     "each pass; a coming report reads it"
+)
+THINNED_WARNING = (
+    "the verdict read one sample in {step} (one every {ts_s:.4g} s): the loop cycles every {period:.0f} samples, "
+    "longer than any cycle the detector was trained on (at most 300), so it is read at the sampling that makes it "
+    "a typical one; the friction numbers read every sample"
 )
 NO_SETPOINT_WARNING = (
     "no setpoint (SP) in the record: the verdict reads PV's deviation from its own level, and the stuck-valve test "
@@ -159,15 +164,23 @@ class Quantifier:
         problems_all = data_checks_rows(op, pv)
         blocked = [[c.message for c in blocking(problems)] for problems in problems_all]
         evs = features.evidence_rows(op, pv, ts_s, sps)
+        # a window that is not the canonical loop's (its own models read it, at its own sampling) and whose data are
+        # read: the window network speaks there, and a cycle longer than any trained on is read thinned
+        read = ~level & np.array([not said for said in blocked])
+        periods = np.array([ev.oscillation.period_s / ts_s if ev.oscillation.oscillating else 0.0 for ev in evs])
+        steps = np.where(read, thinning.verdict_steps(periods, op.shape[1]), 1)
         seq = np.full(n, np.nan)
-        if self.window_net is not None:
-            # only where the network speaks: a window that is not the canonical loop's (its own model reads it), and
-            # whose data are read
-            read = ~level & np.array([not said for said in blocked])
-            if read.any():
-                idx = np.flatnonzero(read)
-                seq[idx] = sequence_probabilities(
-                    self.window_net, op[idx], pv[idx], [sps[i] for i in idx], self.sequence_chunks
+        for step in np.unique(steps):
+            idx = np.flatnonzero(steps == step)
+            o, p = thinning.thinned(op[idx], step), thinning.thinned(pv[idx], step)
+            s = [None if sps[i] is None else thinning.thinned(sps[i], step) for i in idx]
+            if step > 1:
+                for i, ev in zip(idx, features.evidence_rows(o, p, ts_s * step, s), strict=True):
+                    evs[i] = ev
+            net = read[idx] if self.window_net is not None else np.zeros(idx.size, bool)
+            if net.any():
+                seq[idx[net]] = sequence_probabilities(
+                    self.window_net, o[net], p[net], [s[j] for j in np.flatnonzero(net)], self.sequence_chunks
                 )
         verdicts = decide_rows(self.detector, evs, blocked, level, seq)
         clock = self._lap("verdict", clock)
@@ -214,7 +227,9 @@ class Quantifier:
             if band[i]:
                 verdict = policy.called_by_band(verdict, float(phys.fs_pct[i]), float(phys.fs_se_pct[i]))
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
-            if w.sp is None and not level[i] and not blocked[i]:
+            if steps[i] > 1:
+                warnings.append(THINNED_WARNING.format(step=int(steps[i]), ts_s=ts_s * steps[i], period=periods[i]))
+            if w.sp is None and read[i]:
                 warnings.append(NO_SETPOINT_WARNING)
             if verdict.verdict == "stiction" and verdict.sequence:
                 warnings.append(verdict.sequence)
