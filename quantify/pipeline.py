@@ -171,16 +171,15 @@ class Quantifier:
         steps = np.where(read, thinning.verdict_steps(periods, op.shape[1]), 1)
         seq = np.full(n, np.nan)
         for step in np.unique(steps):
-            idx = np.flatnonzero(steps == step)
-            o, p = thinning.thinned(op[idx], step), thinning.thinned(pv[idx], step)
-            s = [None if sps[i] is None else thinning.thinned(sps[i], step) for i in idx]
             if step > 1:
-                for i, ev in zip(idx, features.evidence_rows(o, p, ts_s * step, s), strict=True):
+                idx = np.flatnonzero(steps == step)
+                o, p, sp = _thinned_rows(op, pv, sps, idx, step)
+                for i, ev in zip(idx, features.evidence_rows(o, p, ts_s * step, sp), strict=True):
                     evs[i] = ev
-            net = read[idx] if self.window_net is not None else np.zeros(idx.size, bool)
-            if net.any():
-                seq[idx[net]] = sequence_probabilities(
-                    self.window_net, o[net], p[net], [s[j] for j in np.flatnonzero(net)], self.sequence_chunks
+            net = np.flatnonzero((steps == step) & read) if self.window_net is not None else []
+            if len(net):
+                seq[net] = sequence_probabilities(
+                    self.window_net, *_thinned_rows(op, pv, sps, net, step), self.sequence_chunks
                 )
         verdicts = decide_rows(self.detector, evs, blocked, level, seq)
         clock = self._lap("verdict", clock)
@@ -325,6 +324,12 @@ class Quantifier:
         now = time.thread_time()
         self.cpu_s[stage] += now - since
         return now
+
+
+def _thinned_rows(op: np.ndarray, pv: np.ndarray, sps: list, rows: np.ndarray, step: int) -> tuple:
+    """(op, pv, sps) of ``rows`` of a batch at every ``step``-th sample (``detect.thinning``; 1: as they are)."""
+    sp = [None if sps[i] is None else thinning.thinned(sps[i], step) for i in rows]
+    return thinning.thinned(op[rows], step), thinning.thinned(pv[rows], step), sp
 
 
 def _blocks(shown: dict, level: bool) -> dict:
