@@ -165,8 +165,7 @@ def _as_the_verdict_reads(rec, ev):
     from stiction.detect import thinning
     from stiction.detect.features import evidence
 
-    period = ev.oscillation.period_s / rec.ts_s if ev.oscillation.oscillating else 0.0
-    step = int(thinning.verdict_steps(np.array([period]), len(rec.op))[0])
+    step = int(thinning.verdict_steps(thinning.cycle_periods([ev], rec.ts_s), len(rec.op))[0])
     if step == 1:
         return rec, ev
     thin = replace(rec, op=thinning.thinned(rec.op, step), pv=thinning.thinned(rec.pv, step),

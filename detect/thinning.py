@@ -29,6 +29,12 @@ TYPICAL_PERIOD_SAMPLES = 63.0
 at plant scale; 344 windows).  Read off the training windows, not chosen on any verdict."""
 
 
+def cycle_periods(evs, ts_s: float) -> np.ndarray:
+    """[W] the period, in samples, of each window's regular cycle from its evidence (``detect.features.Evidence``);
+    0 where it has none."""
+    return np.array([ev.oscillation.period_s / ts_s if ev.oscillation.oscillating else 0.0 for ev in evs])
+
+
 def verdict_steps(periods_samples: np.ndarray, n: int) -> np.ndarray:
     """[W] int: the step the verdict reads each of W records of ``n`` samples at, from the period (samples) of its
     regular cycle (nan or 0 where it has none): 1 unless the cycle is longer than ``LONGEST_PERIOD_SAMPLES``."""

@@ -55,8 +55,8 @@ DEFERRED_WARNING = (
 )
 THINNED_WARNING = (
     "the verdict read one sample in {step} (one every {ts_s:.4g} s): the loop cycles every {period:.0f} samples, "
-    "longer than any cycle the detector was trained on (at most 300), so it is read at the sampling that makes it "
-    "a typical one; the friction numbers read every sample"
+    "longer than any cycle the detector was trained on (at most {longest:.0f}), so it is read at the sampling that "
+    "makes it a typical one; the friction numbers read every sample"
 )
 NO_SETPOINT_WARNING = (
     "no setpoint (SP) in the record: the verdict reads PV's deviation from its own level, and the stuck-valve test "
@@ -167,16 +167,17 @@ class Quantifier:
         # a window that is not the canonical loop's (its own models read it, at its own sampling) and whose data are
         # read: the window network speaks there, and a cycle longer than any trained on is read thinned
         read = ~level & np.array([not said for said in blocked])
-        periods = np.array([ev.oscillation.period_s / ts_s if ev.oscillation.oscillating else 0.0 for ev in evs])
+        periods = thinning.cycle_periods(evs, ts_s)
         steps = np.where(read, thinning.verdict_steps(periods, op.shape[1]), 1)
         seq = np.full(n, np.nan)
         for step in np.unique(steps):
+            at_step = steps == step
             if step > 1:
-                idx = np.flatnonzero(steps == step)
+                idx = np.flatnonzero(at_step)
                 o, p, sp = _thinned_rows(op, pv, sps, idx, step)
                 for i, ev in zip(idx, features.evidence_rows(o, p, ts_s * step, sp), strict=True):
                     evs[i] = ev
-            net = np.flatnonzero((steps == step) & read) if self.window_net is not None else []
+            net = np.flatnonzero(at_step & read) if self.window_net is not None else []
             if len(net):
                 seq[net] = sequence_probabilities(
                     self.window_net, *_thinned_rows(op, pv, sps, net, step), self.sequence_chunks
@@ -227,7 +228,8 @@ class Quantifier:
                 verdict = policy.called_by_band(verdict, float(phys.fs_pct[i]), float(phys.fs_se_pct[i]))
             warnings = [c.message for c in problems] + ([verdict.stuck_valve] if verdict.stuck_valve else [])
             if steps[i] > 1:
-                warnings.append(THINNED_WARNING.format(step=int(steps[i]), ts_s=ts_s * steps[i], period=periods[i]))
+                said = {"step": int(steps[i]), "ts_s": ts_s * steps[i], "period": periods[i]}
+                warnings.append(THINNED_WARNING.format(**said, longest=thinning.LONGEST_PERIOD_SAMPLES))
             if w.sp is None and read[i]:
                 warnings.append(NO_SETPOINT_WARNING)
             if verdict.verdict == "stiction" and verdict.sequence:
