@@ -59,9 +59,8 @@ THINNED_WARNING = (
     "makes it a typical one; the friction numbers read every sample"
 )
 NO_SETPOINT_WARNING = (
-    "no setpoint (SP) in the record: the verdict reads PV's deviation from its own level, and the stuck-valve test "
-    "on setpoint steps cannot run (a valve that stays put after a setpoint step while OP winds up); with SP, 7 more "
-    "of the 27 windows labelled sticky in the shared measured data are called. Export SP with OP and PV where the "
+    "no setpoint (SP) in the record: the verdict reads PV's deviation from its own level, and cannot see a valve "
+    "that stays put after a setpoint step while OP winds up (that test needs SP); export SP with OP and PV where the "
     "historian has it"
 )
 READING_FIELDS = (
