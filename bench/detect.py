@@ -169,7 +169,8 @@ def _as_the_verdict_reads(rec, ev):
     if step == 1:
         return rec, ev
     thin = replace(rec, op=thinning.thinned(rec.op, step), pv=thinning.thinned(rec.pv, step),
-                   sp=thinning.thinned(rec.sp, step), ts_s=rec.ts_s * step)  # fmt: skip
+                   sp=thinning.thinned(rec.sp, step), ts_s=rec.ts_s * step,
+                   mv=None if rec.mv is None else thinning.thinned(rec.mv, step))  # fmt: skip
     return thin, evidence(thin.op, thin.pv, thin.ts_s, thin.sp)
 
 

@@ -9,17 +9,18 @@ Choudhury's valve, in % of span, band S and slip J: a valve that moves follows i
 once the input has left the sticking point by more than S (the other way: the band) or J (the same way:
 the slip alone).  Vectorised over loops, stepped over samples.
 
-Loops are labelled by what their window shows, as ``sim.plant_families`` labels them: a valve fault
-where the stem stood still at least twice while OP travelled half the band and then moved.
+Loops are labelled by what their window shows, as ``sim.plant_families`` labels them (``simulate``): a valve
+fault where the stem stood still at least twice while OP travelled half the band the valve presents and then moved,
+and the record shows it above the noise.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from stiction.sim.plant_families import FAULT_EVENTS, stuck_events
+from stiction.sim.plant_families import FAULT_EVENTS, VISIBLE_EFFECT, effect_noise, stuck_events
 
 KINDS = ("flow", "level")
 CAUSES = ("stiction", "backlash", "sine", "square", "tuning", "none")
@@ -58,6 +59,20 @@ class Record:
     sp: np.ndarray
     ts_s: float
     shows_fault: bool
+    mv: np.ndarray | None = None
+    """The valve's stem position (% of span), as the plant does not record it."""
+    effect_noise: float = 0.0
+    """The fault's effect on PV over the noise (``sim.plant_families.VISIBLE_EFFECT``); 0 for a healthy valve."""
+
+
+def presented_band_pct(s_pct: float, j_pct: float) -> float:
+    """The OP travel after which a stuck stem of Choudhury's valve moves again, in a record with noise on OP: J where
+    the valve slips (J > 0), S where it does not (backlash).  The valve reads the direction of travel from one
+    sample's move, so under a noisy OP a stem stuck at a reversal moves as soon as OP is J away from the sticking
+    point and one sample's noise points the old way: its limit cycles stick for J, not S (design seed 3131: the
+    median stuck stretch of a tenth of its sticky loops is 0.31 of S, 1.02 of J).  Read against S, a textbook
+    level limit cycle (S 6.6 %, J 2.7 %, stuck for 2.7 % of OP each half cycle) was labelled healthy-looking."""
+    return min(s_pct, j_pct) if j_pct > 0 else s_pct
 
 
 def draw(n_per_cause: int, seed: int) -> list[Loop]:
@@ -109,7 +124,28 @@ def choudhury_step(x, x_prev, y_prev, stuck, x_stick, dir_stick, v_prev, s, j):
 
 
 def simulate(loops: list[Loop], samples: int = SAMPLES) -> list[Record]:
-    """Each loop's last ``samples`` samples after ``WARMUP_SAMPLES``, all loops stepped together."""
+    """Each loop's last ``samples`` samples after ``WARMUP_SAMPLES``, all loops stepped together, labelled as
+    ``sim.plant_families`` labels its windows: a fault where the stem stood still at least ``FAULT_EVENTS`` times
+    while OP travelled half the band the valve presents (``presented_band_pct``) and then moved, and where that
+    changed PV by ``VISIBLE_EFFECT`` noises or more against the same loop with a healthy valve (the same noise,
+    wander and load), simulated beside it."""
+    faulty = [i for i, lp in enumerate(loops) if lp.s_pct > 0]
+    twins = [replace(loops[i], s_pct=0.0, j_pct=0.0) for i in faulty]
+    op, pv, mv = _run(loops + twins, samples)
+    healthy_pv = dict(zip(faulty, pv[len(loops) :], strict=True))
+    out = []
+    for i, lp in enumerate(loops):
+        events, effect = 0, 0.0
+        if lp.s_pct > 0:
+            events = stuck_events(op[i], mv[i], presented_band_pct(lp.s_pct, lp.j_pct))
+            effect = effect_noise(pv[i], healthy_pv[i], lp.noise_pct)
+        shown = events >= FAULT_EVENTS and effect >= VISIBLE_EFFECT
+        out.append(Record(op[i], pv[i], np.full(samples, 50.0), lp.ts_s, shown, mv[i], effect))
+    return out
+
+
+def _run(loops: list[Loop], samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """OP, PV and the stem's position [loops, samples] of ``loops`` stepped together, after the warm-up."""
     n_loops, n = len(loops), samples + WARMUP_SAMPLES
     f = {k: np.array([getattr(lp, k) if getattr(lp, k) is not None else 0.0 for lp in loops], float)
          for k in ("ts_s", "gain", "tau_s", "dead_s", "kc", "ti_s", "s_pct", "j_pct", "noise_pct", "load_pct",
@@ -154,9 +190,4 @@ def simulate(loops: list[Loop], samples: int = SAMPLES) -> list[Record]:
         history[:, 0] = valve
         y_out = a * y_out + b * (history[rows, delay] - 50.0 + wander[:, k])
     keep = slice(WARMUP_SAMPLES, n)
-    out = []
-    for i, lp in enumerate(loops):
-        o, p, m = op[i, keep], pv[i, keep], mv[i, keep]
-        events = stuck_events(o, m, lp.s_pct) if lp.s_pct > 0 else 0
-        out.append(Record(o, p, np.full(samples, 50.0), lp.ts_s, events >= FAULT_EVENTS))
-    return out
+    return op[:, keep].copy(), pv[:, keep].copy(), mv[:, keep].copy()
