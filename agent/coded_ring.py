@@ -85,17 +85,18 @@ class CodedRing:
     """``size`` samples as 24-bit codes; ``write_run`` writes a run of them from a ring position (``put`` a few,
     ``write`` a slice of positions), ``read`` any positions (an index array) and ``read_run`` a run, as float64."""
 
-    __slots__ = ("size", "buf", "base", "step")
+    __slots__ = ("size", "buf", "base", "step", "odd")
 
     def __init__(self, size: int):
         self.size = size
         self.buf = bytearray(CODE_BYTES * size)
         self.base = 0.0
         self.step = 0.0  # no grid until the first write
+        self.odd = False  # whether the base is an odd multiple of the step: kept by ``_set_grid``, read by every put
 
-    def _base_odd(self) -> bool:
-        """Whether the base is an odd multiple of the step."""
-        return (self.base / self.step) % 2 == 1
+    def _set_grid(self, base: float, step: float) -> None:
+        self.base, self.step = base, step
+        self.odd = bool((base / step) % 2 == 1)
 
     def codes(self, at=slice(None)) -> np.ndarray:
         """The codes at ring positions ``at``."""
@@ -135,7 +136,7 @@ class CodedRing:
         stream of a few samples a message, coded in Python (``_round_odd``, one number at a time), no array set up."""
         step = self.step
         if step:
-            base, parity, coded = self.base, self._base_odd(), []
+            base, parity, coded = self.base, self.odd, []
             for v in values:
                 c = (v - base) / step
                 if not -CODE_REACH <= c <= CODE_REACH:
@@ -154,8 +155,8 @@ class CodedRing:
         base), so it is never narrower than what is read from it."""
         if self.step == 0.0:  # the first samples: a grid about them
             lo, hi = float(values.min()), float(values.max())
-            self.step = fitted_step(lo, hi)
-            self.base = round((0.5 * lo + 0.5 * hi) / self.step) * self.step
+            step = fitted_step(lo, hi)
+            self._set_grid(round((0.5 * lo + 0.5 * hi) / step) * step, step)
         with np.errstate(over="ignore"):  # a value at float64's end beyond an old grid: inf, past its reach
             c = (values - self.base) / self.step
         if c.max() > CODE_REACH or c.min() < -CODE_REACH:
@@ -165,7 +166,7 @@ class CodedRing:
             self._regrid(held, max(fitted_step(lo, hi), self.step), 0.5 * lo + 0.5 * hi)
             c = (values - self.base) / self.step
         start, stop, _ = at.indices(self.size)
-        self.buf[CODE_BYTES * start : CODE_BYTES * stop] = _encode(_round_odd(c, self._base_odd()))
+        self.buf[CODE_BYTES * start : CODE_BYTES * stop] = _encode(_round_odd(c, self.odd))
 
     def narrow(self) -> None:
         """Refit to the samples held where a grid ``NARROW_GAIN`` times finer reaches them all (call once the ring
@@ -182,5 +183,5 @@ class CodedRing:
         """Code the ring's ``held`` codes again on the grid of ``step`` whose base is the multiple of it nearest
         ``centre``."""
         values = self.base + held * self.step
-        self.base, self.step = round(centre / step) * step, step
-        self.buf[:] = _encode(_round_odd((values - self.base) / step, self._base_odd()))
+        self._set_grid(round(centre / step) * step, step)
+        self.buf[:] = _encode(_round_odd((values - self.base) / step, self.odd))

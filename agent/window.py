@@ -96,8 +96,12 @@ class RollingWindow:
             self._update_mv(seq, n, mv)
         m = min(n, self.size)  # the last ``size`` samples, from their place in the ring on
         j = (seq + n - m) % self.size
-        self._op.write_run(j, op[n - m :] if m < n else op)
-        self._pv.write_run(j, pv[n - m :] if m < n else pv)
+        if n == 1 and isinstance(op, list) and isinstance(pv, list):  # the spec's one-sample stream: no run to wrap
+            self._op.put(j, op)
+            self._pv.put(j, pv)
+        else:
+            self._op.write_run(j, op[n - m :] if m < n else op)
+            self._pv.write_run(j, pv[n - m :] if m < n else pv)
         self.count = min(self.size, self.count + n)
         if self.count == self.size and (seq + n) // self.size > seq // self.size:
             self._op.narrow()  # the ring turned over: an outlier slid out of the window gives back its resolution
@@ -119,12 +123,16 @@ class RollingWindow:
             self._sp_missing_until = seq + n
             return
         steps, start = self._sp_steps, seq + n - self.size  # start: the window's first sample after this batch
-        if steps is not None and seq > steps[-1][0] and all(float(DTYPE(v)) == steps[-1][1] for v in sp):
+        if (
+            steps is not None
+            and seq > steps[-1][0]
+            and (float(DTYPE(sp[0])) == steps[-1][1] if n == 1 else all(float(DTYPE(v)) == steps[-1][1] for v in sp))
+        ):
             _drop_slid_out(steps, start)  # the setpoint stands still (most messages)
             return
         if self._sp is None and steps is None:
             const = float(sp[0]) if self._sp_const is None else self._sp_const
-            if all(float(v) == const for v in sp):
+            if (float(sp[0]) == const) if n == 1 else all(float(v) == const for v in sp):
                 self._sp_const = const
                 return
             self._sp_steps = [(seq - self.size, float(DTYPE(const)))]
