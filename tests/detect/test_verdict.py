@@ -379,6 +379,41 @@ def test_beside_a_cycle_the_network_raises_a_call_or_unsettles_one_the_cycle_mod
     assert p[6] == unsure and p[7] == 0.9  # an unsure call the network only leans against, or agrees with, stands
 
 
+def test_beside_a_cycle_read_surely_healthy_a_lean_of_the_network_does_not_unsettle_it():
+    from stiction.detect.verdict import CYCLE_HEALTHY_AT, LEANS_AT, STICTION_AT, beside_cycle
+
+    leaning = (LEANS_AT + STICTION_AT) / 2
+    healthy, unsure_healthy = CYCLE_HEALTHY_AT / 2, (CYCLE_HEALTHY_AT + LEANS_AT) / 2
+    cycle = np.array([healthy, healthy, healthy, unsure_healthy, healthy])
+    net = np.array([leaning, STICTION_AT, 0.9, leaning, np.nan])
+    p = beside_cycle(cycle, net)
+    assert p[0] == healthy  # a lean beside a sure healthy reading: healthy
+    assert np.all((p[1:3] >= LEANS_AT) & (p[1:3] < STICTION_AT))  # the network calls it: a contradiction, unsettled
+    assert p[3] == leaning  # a cycle not surely healthy: the lean stands, not settled
+    assert p[4] == healthy  # no network reading
+
+
+def test_a_cycle_read_surely_healthy_beside_a_leaning_network_is_reported_healthy_and_says_so(detector):
+    """A regular cycle the cycle model reads surely healthy, beside a network set to lean, is reported as another
+    cause at the cycle model's probability, and its reason says the network only leaned."""
+    from stiction.detect.verdict import CYCLE_HEALTHY_AT, LEANS_AT, STICTION_AT, decide_rows
+
+    loops = [lp for lp in family_loops(2, SIM_SEED + 2323) if lp.cause in ("sine", "square", "triangle")]
+    recs = [r for r in simulate_families(loops) if stable(r)]
+    evs = [evidence(r.op, r.pv, r.ts_s, r.sp) for r in recs]
+    x = np.stack([ev.vector for ev in evs])
+    osc = np.array([ev.oscillation.oscillating for ev in evs])
+    alone = detector.stiction_probability(x, np.stack([ev.stuck for ev in evs]), osc)
+    picked = [i for i in range(len(evs)) if osc[i] and alone[i] < CYCLE_HEALTHY_AT]
+    assert len(picked) >= 3, f"only {len(picked)} cycles read surely healthy: the test does not exercise the rule"
+    leaning = (LEANS_AT + STICTION_AT) / 2
+    verdicts = decide_rows(detector, [evs[i] for i in picked], [[]] * len(picked), [False] * len(picked),
+                           np.full(len(picked), leaning))  # fmt: skip
+    for i, v in zip(picked, verdicts, strict=True):
+        assert v.verdict == "other_cause" and v.stiction_probability == pytest.approx(alone[i])
+        assert "a lean, beside a cycle the statistics read surely healthy" in v.reason
+
+
 def test_the_network_speaks_beside_the_general_and_the_cycle_model_but_not_the_canonical_loops(detector):
     from stiction.detect.features import NAMES
     from stiction.detect.verdict import beside_cycle, combined
