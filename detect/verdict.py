@@ -459,10 +459,14 @@ def decide_rows(
         alone = detector.stiction_probability(x, None, osc, known) if read.any() else np.full(n, np.nan)
         contradict = disagree(alone, seq)
         unsure = weakly_called(alone, seq) & (route == 0)  # the general model's rule (``combined``), not the cycle's
+        # a cycle read surely healthy that the network's lean left so (``beside_cycle``), no stuck-valve rule raising it
+        leaning = (seq >= LEANS_AT) & (seq < STICTION_AT)
+        kept = (route == 1) & (alone < CYCLE_HEALTHY_AT) & leaning & (p < CYCLE_HEALTHY_AT)
         causes = detector.cause.probabilities(x) if osc.any() else None
     return [
         _verdict(detector, evs[i], blocking_problems[i], float(p[i]), float(alone[i]) if read[i] else None,
-                 float(seq[i]), bool(contradict[i]), None if causes is None else causes[i], bool(unsure[i]))
+                 float(seq[i]), bool(contradict[i]), None if causes is None else causes[i], bool(unsure[i]),
+                 bool(kept[i]))
         for i in range(n)
     ]  # fmt: skip
 
@@ -477,10 +481,12 @@ def _verdict(
     contradict: bool,
     cause_probabilities: np.ndarray | None,
     unsure: bool = False,
+    kept_healthy: bool = False,
 ) -> Verdict:
     """One window's verdict from its probabilities: ``p`` the verdict's, ``alone`` the statistics' where the window
     network spoke (else None), ``seq`` the network's, ``contradict`` whether the two contradict each other, ``unsure``
-    whether one calls the window without being sure while the other only leans (``weakly_called``)."""
+    whether one calls the window without being sure while the other only leans (``weakly_called``), ``kept_healthy``
+    whether the network's lean left a cycle the cycle model reads surely healthy as it was (``beside_cycle``)."""
     if blocking_problems:
         return Verdict("bad_data", None, None, "; ".join(blocking_problems))
     read = None
@@ -492,7 +498,7 @@ def _verdict(
             read += ": the two readings contradict each other"
         elif unsure and p < STICTION_AT:
             read += f": one calls it short of the {SURE_AT} a sure call needs and the other only leans to it"
-        elif ev.oscillation.oscillating and alone < CYCLE_HEALTHY_AT and LEANS_AT <= seq < STICTION_AT:
+        elif kept_healthy:
             read += f": a lean, beside a cycle the statistics read surely healthy (below {CYCLE_HEALTHY_AT:.1f})"
     if p >= STICTION_AT:
         stuck = _stuck_valve(detector, ev)

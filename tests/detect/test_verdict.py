@@ -362,6 +362,7 @@ def test_an_unsettled_verdict_says_why_in_its_reason(detector):
             assert "short of the 0.8 a sure call needs" in v.reason
         else:
             assert "a sure call needs" not in v.reason
+        assert "beside a cycle the statistics read surely healthy" not in v.reason  # the cycle's rule, not this one's
     assert unsure >= 3, f"only {unsure} windows read unsurely: the test does not exercise the rule"
 
 
