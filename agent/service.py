@@ -24,7 +24,7 @@ import numpy as np
 from stiction.agent.core import AgentCore, CoreSettings
 from stiction.agent.sizing_plan import SizingPlan
 from stiction.quantify.assembly import assemble, needs_sizing
-from stiction.quantify.identified import lower_priority, size_in_worker, sizing_pool
+from stiction.quantify.identified import lower_priority, size_in_worker, sizing_pool, stop_pool
 from stiction.quantify.pipeline import Quantifier, warm_up
 from stiction.quantify.refit import fit_in_worker, worker_window
 from stiction.quantify.stem import stem_check
@@ -286,7 +286,7 @@ class AgentService:
             d.undeclare()
         self._declared, self._shard_subs, self._spec_samples = [], {}, None
         if self._size_pool is not None:
-            self._size_pool.shutdown(wait=False, cancel_futures=True)
+            stop_pool(self._size_pool)  # a sizing in flight would hold the agent's exit until it ends
             self._size_pool = None
 
     def run(self, stop: threading.Event) -> None:

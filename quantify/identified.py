@@ -63,6 +63,22 @@ def sizing_pool(workers: int, initializer=None):
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=initializer)
 
 
+def stop_pool(pool) -> None:
+    """Stop sizing workers now: queued sizings cancelled, one in flight abandoned (its loop is sized again when a
+    report next wants it).  ``shutdown(wait=False)`` alone still holds the interpreter's exit until the sizing in
+    flight ends: an agent told to stop while a worker fitted a noisy record took that fit's time to exit (over 20 s
+    on a loaded host, tests/integration/test_status_lines.py).  Python 3.14's ``terminate_workers`` does this; before
+    it, the pool's own process handles are read before its shutdown drops them."""
+    if hasattr(pool, "terminate_workers"):
+        pool.terminate_workers()
+        return
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+
+
 def lower_priority() -> None:
     """A sizing worker's initializer: it yields the CPU to the agent's reports."""
     with contextlib.suppress(OSError):
