@@ -232,6 +232,14 @@ and 9696: balanced accuracy within its error both ways (flow +0.009 on both, det
 windows it settles show a fault 3-5 % of the time, as windows read below 0.2 do, not the quarter of the lean band."""
 
 
+def kept_beside_cycle(cycle: np.ndarray, network: np.ndarray) -> np.ndarray:
+    """Whether a cycle the cycle model reads surely healthy (below ``CYCLE_HEALTHY_AT``) keeps that reading beside a
+    network that only leans to stiction (``LEANS_AT`` up to ``STICTION_AT``): ``beside_cycle``'s rule, and the reason
+    text's (``decide_rows``)."""
+    cycle, network = np.asarray(cycle, float), np.asarray(network, float)
+    return (cycle < CYCLE_HEALTHY_AT) & (network >= LEANS_AT) & (network < STICTION_AT)
+
+
 def beside_cycle(cycle: np.ndarray, network: np.ndarray) -> np.ndarray:
     """The stiction probability of a window that cycles regularly, from the cycle model's reading and the window
     network's: the larger of the two unless they contradict each other, as ``combined`` (but not its unsettling of a
@@ -249,9 +257,8 @@ def beside_cycle(cycle: np.ndarray, network: np.ndarray) -> np.ndarray:
     on a measured plant (2111LIC31102B, cycle model 0.48-0.55, network 0.07) was called sticky
     (docs/benchmarks.md, "The network may contradict a cycle call the cycle model is not sure of")."""
     cycle, network = np.asarray(cycle, float), np.asarray(network, float)
-    healthy = (cycle < CYCLE_HEALTHY_AT) & (network < STICTION_AT)
-    either = _larger_unless_contradicting(cycle, network)
-    return np.where(cycle >= CYCLE_SURE_AT, np.fmax(cycle, network), np.where(healthy, cycle, either))
+    either = np.where(kept_beside_cycle(cycle, network), cycle, _larger_unless_contradicting(cycle, network))
+    return np.where(cycle >= CYCLE_SURE_AT, np.fmax(cycle, network), either)
 
 
 @dataclass(frozen=True)
@@ -461,9 +468,8 @@ def decide_rows(
         alone = detector.stiction_probability(x, None, osc, known) if read.any() else np.full(n, np.nan)
         contradict = disagree(alone, seq)
         unsure = weakly_called(alone, seq) & (route == 0)  # the general model's rule (``combined``), not the cycle's
-        # a cycle read surely healthy that the network's lean left so (``beside_cycle``), no stuck-valve rule raising it
-        leaning = (seq >= LEANS_AT) & (seq < STICTION_AT)
-        kept = (route == 1) & (alone < CYCLE_HEALTHY_AT) & leaning & (p < CYCLE_HEALTHY_AT)
+        # the cycle's rule (``beside_cycle``) where it decided the probability: no stuck-valve rule raised it
+        kept = (route == 1) & kept_beside_cycle(alone, seq) & (p < CYCLE_HEALTHY_AT)
         causes = detector.cause.probabilities(x) if osc.any() else None
     return [
         _verdict(detector, evs[i], blocking_problems[i], float(p[i]), float(alone[i]) if read[i] else None,

@@ -385,13 +385,15 @@ def test_beside_a_cycle_read_surely_healthy_a_lean_of_the_network_does_not_unset
 
     leaning = (LEANS_AT + STICTION_AT) / 2
     healthy, unsure_healthy = CYCLE_HEALTHY_AT / 2, (CYCLE_HEALTHY_AT + LEANS_AT) / 2
-    cycle = np.array([healthy, healthy, healthy, unsure_healthy, healthy])
-    net = np.array([leaning, STICTION_AT, 0.9, leaning, np.nan])
+    below_lean = (CYCLE_HEALTHY_AT + LEANS_AT) / 2
+    cycle = np.array([healthy, healthy, healthy, unsure_healthy, healthy, healthy])
+    net = np.array([leaning, STICTION_AT, 0.9, leaning, np.nan, below_lean])
     p = beside_cycle(cycle, net)
     assert p[0] == healthy  # a lean beside a sure healthy reading: healthy
     assert np.all((p[1:3] >= LEANS_AT) & (p[1:3] < STICTION_AT))  # the network calls it: a contradiction, unsettled
     assert p[3] == leaning  # a cycle not surely healthy: the lean stands, not settled
     assert p[4] == healthy  # no network reading
+    assert p[5] == below_lean  # both healthy: the larger, as before the rule (it speaks only beside a lean)
 
 
 def test_a_cycle_read_surely_healthy_beside_a_leaning_network_is_reported_healthy_and_says_so(detector):
