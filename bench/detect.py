@@ -229,7 +229,8 @@ def _judged(rows, detector) -> tuple[dict, list[dict]]:
         by_kind[kind]["ours_settled"], by_kind[kind]["cannot_tell"] = _settled(p, truth, blocked, held)
     windows = [
         {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
-         "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]), "p_network": float(seq[i])}
+         "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]), "p_network": float(seq[i]),
+         "s_pct": float(r[0].s_pct), "j_pct": float(r[0].j_pct)}
         for i, r in enumerate(rows)
     ]  # fmt: skip
     return by_kind, windows
@@ -299,7 +300,8 @@ def bench_detect(
         out["windows"] = [
             {"family": r[0].family, "cause": r[0].cause, "shows_fault": bool(r[1].shows_fault), "blocked": bool(r[3]),
              "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]),
-             "p_network": float(seq_all[i]), "s_pct": float(r[0].s_pct), "effect_noise": float(r[1].effect_noise)}
+             "p_network": float(seq_all[i]), "s_pct": float(r[0].s_pct), "j_pct": float(r[0].j_pct),
+             "effect_noise": float(r[1].effect_noise)}
             for i, r in enumerate(rows)
         ]  # fmt: skip
     calls = [_calls(r[2], p[i], r[3], p_stat[i]) for i, r in enumerate(rows)]

@@ -38,6 +38,9 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     # probabilities give back the rates above
     assert len(fig["windows"]) == sum(r["n"] for r in fig["families"].values())
     assert len(fig["two_parameter_windows"]) == sum(r["n"] for r in fig["two_parameter"].values())
+    # each simulated window says its valve's band and slip (a healthy valve's are 0; backlash slips 0)
+    assert all(w["s_pct"] >= w["j_pct"] >= 0 for w in fig["windows"] + fig["two_parameter_windows"])
+    assert any(w["j_pct"] > 0 for w in fig["windows"]) and any(w["j_pct"] > 0 for w in fig["two_parameter_windows"])
     measured = fig["measured_windows"]
     assert len(measured) == m["windows"] and sum(w["sticky"] for w in measured) == m["sticky"]
     called = [w["p"] >= 0.5 and not w["blocked"] for w in measured]
