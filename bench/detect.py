@@ -100,6 +100,20 @@ def _false_alarms(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, fault_v
             for name, valve in (("healthy_valve", ~fault_valve), ("faulty_valve_not_shown", fault_valve))}  # fmt: skip
 
 
+def _fault_outcomes(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray) -> dict:
+    """Where the windows that show a fault go, as a plant counting the verdicts sees them: shares called stiction,
+    leaning without settling (``LEANS_AT`` up to ``STICTION_AT``), not read (bad data) and read healthy."""
+    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+
+    if not truth.any():
+        return {"called": None, "leaning": None, "bad_data": None, "read_healthy": None}
+    read = ~blocked[truth]
+    q = p[truth]
+    return {"called": float(np.mean(read & (q >= STICTION_AT))),
+            "leaning": float(np.mean(read & (q >= LEANS_AT) & (q < STICTION_AT))),
+            "bad_data": float(np.mean(~read)), "read_healthy": float(np.mean(read & (q < LEANS_AT)))}  # fmt: skip
+
+
 def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
     """Sensitivity, specificity, balanced accuracy and accuracy of boolean calls against the truth, and the
     balanced accuracy's standard error (``_balanced_se``)."""
@@ -227,6 +241,7 @@ def _judged(rows, detector) -> tuple[dict, list[dict]]:
         held = kinds == kind
         by_kind[kind] = _method_rows(calls, truth, osc, held)
         by_kind[kind]["ours_settled"], by_kind[kind]["cannot_tell"] = _settled(p, truth, blocked, held)
+        by_kind[kind]["fault_outcomes"] = _fault_outcomes(p[held], truth[held], blocked[held])
     windows = [
         {"kind": r[0].kind, "cause": r[0].cause, "shows_fault": bool(truth[i]), "blocked": bool(r[3]),
          "oscillating": bool(osc[i]), "p": float(p[i]), "p_statistics": float(p_stat[i]), "p_network": float(seq[i]),
@@ -317,6 +332,7 @@ def bench_detect(
         row = _method_rows(calls, truth, osc, held)
         row["ours_settled"], row["cannot_tell"] = _settled(p, truth, blocked, held)
         row["false_alarms"] = _false_alarms(p[held], truth[held], blocked[held], fault_valve[held])
+        row["fault_outcomes"] = _fault_outcomes(p[held], truth[held], blocked[held])
         # the same for the verdict without the window network
         row["statistics_settled"], row["statistics_cannot_tell"] = _settled(p_stat, truth, blocked, held)
         row["ours_stem_slipped"] = _rates(calls_ours[held], slipped[held])
@@ -388,6 +404,13 @@ def bench_detect(
     return out
 
 
+def _outcomes_text(name: str, row: dict) -> str:
+    o = row.get("fault_outcomes") or {}
+    if o.get("called") is None:
+        return f"{name} none shows a fault"
+    return f"{name} " + " / ".join(f"{o[k]:.2f}" for k in ("called", "leaning", "bad_data", "read_healthy"))
+
+
 def print_table(fig: dict) -> None:
     from stiction.detect.verdict import LEANS_AT, STICTION_AT
 
@@ -405,6 +428,8 @@ def print_table(fig: dict) -> None:
                f"({r['ours_oscillating']['show_fault']} of {r['ours_oscillating']['n']} show a fault)"
                for f, r in fig["families"].items() if r["ours_oscillating"]["n"]]  # fmt: skip
     print("ours on the windows that oscillate regularly (sensitivity/specificity): " + ", ".join(cycling))
+    print("ours on every window, where the windows that show a fault go (called / leaning, not settled / bad data / "
+          "read healthy): " + "; ".join(_outcomes_text(f, r) for f, r in fig["families"].items()))  # fmt: skip
     settled = {f: r["ours_settled"] for f, r in fig["families"].items()}
     cells = [f"{f} {v['balanced']:.2f} +- {2 * v.get('balanced_se', np.nan):.2f}" for f, v in settled.items()]
     print(f"ours, the windows it settles (p below {LEANS_AT} or from {STICTION_AT}, data read): balanced "
@@ -471,4 +496,6 @@ def print_table(fig: dict) -> None:
                   f"{o['specificity']:.2f} ({o['show_fault']} of {o['n']}); ours settled "
                   f"{st['sensitivity']:.2f}/{st['specificity']:.2f} {st['balanced']:.2f}, cannot tell "
                   f"{100 * row['cannot_tell']:.0f} %")  # fmt: skip
+        print("  where its windows that show a fault go (called / leaning / bad data / read healthy): " + "; ".join(
+            _outcomes_text(k, r) for k, r in fig["two_parameter"].items()))  # fmt: skip
     print(f"{fig['seconds']:.0f} s")

@@ -1,5 +1,6 @@
 """``stiction bench detect`` end to end on a small set: every figure it prints is there and is a share."""
 
+import numpy as np
 import pytest
 
 from stiction.bench.detect import METHODS, bench_detect, print_table
@@ -38,6 +39,16 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     # probabilities give back the rates above
     assert len(fig["windows"]) == sum(r["n"] for r in fig["families"].values())
     assert len(fig["two_parameter_windows"]) == sum(r["n"] for r in fig["two_parameter"].values())
+    # where the windows that show a fault go, from the windows: the four shares of each family's faults
+    for f, row in fig["families"].items():
+        faults = [w for w in fig["windows"] if w["family"] == f and w["shows_fault"]]
+        o = row["fault_outcomes"]
+        if not faults:
+            assert o["called"] is None
+            continue
+        assert sum(o.values()) == pytest.approx(1.0)
+        assert o["called"] == pytest.approx(np.mean([not w["blocked"] and w["p"] >= 0.5 for w in faults]))
+        assert o["bad_data"] == pytest.approx(np.mean([w["blocked"] for w in faults]))
     # each simulated window says its valve's band and slip (a healthy valve's are 0; backlash slips 0)
     assert all(w["s_pct"] >= w["j_pct"] >= 0 for w in fig["windows"] + fig["two_parameter_windows"])
     assert any(w["j_pct"] > 0 for w in fig["windows"]) and any(w["j_pct"] > 0 for w in fig["two_parameter_windows"])
@@ -65,7 +76,7 @@ def test_bench_detect_reports_held_out_families_and_measured_tags_beside_the_pub
     assert "judged on plant-scale bands" in out and "by band S" in out and "slip J over the noise" in out
     assert "effect on PV over the noise" in out and "the label before" in out
     assert "measured windows it settles" in out and "of faulty valves whose window does not show" in out
-    assert "+- two standard errors" in out
+    assert "+- two standard errors" in out and "where the windows that show a fault go" in out
     # the independent simulator's settled figures, from its windows: the unsettled and the unread counted neither way
     for kind, row in fig["two_parameter"].items():
         mine = [w for w in fig["two_parameter_windows"] if w["kind"] == kind]
