@@ -103,15 +103,15 @@ def _false_alarms(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray, fault_v
 def _fault_outcomes(p: np.ndarray, truth: np.ndarray, blocked: np.ndarray) -> dict:
     """Where the windows that show a fault go, as a plant counting the verdicts sees them: shares called stiction,
     leaning without settling (``LEANS_AT`` up to ``STICTION_AT``), not read (bad data) and read healthy."""
-    from stiction.detect.verdict import LEANS_AT, STICTION_AT
+    from stiction.detect.verdict import STICTION_AT
 
     if not truth.any():
         return {"called": None, "leaning": None, "bad_data": None, "read_healthy": None}
-    read = ~blocked[truth]
-    q = p[truth]
-    return {"called": float(np.mean(read & (q >= STICTION_AT))),
-            "leaning": float(np.mean(read & (q >= LEANS_AT) & (q < STICTION_AT))),
-            "bad_data": float(np.mean(~read)), "read_healthy": float(np.mean(read & (q < LEANS_AT)))}  # fmt: skip
+    q, unread = p[truth], blocked[truth]
+    called = ~unread & (q >= STICTION_AT)
+    leaning = _unsettled(q, unread) & ~unread
+    return {"called": float(np.mean(called)), "leaning": float(np.mean(leaning)), "bad_data": float(np.mean(unread)),
+            "read_healthy": float(np.mean(~unread & ~called & ~leaning))}  # fmt: skip
 
 
 def _rates(called: np.ndarray, truth: np.ndarray) -> dict:
@@ -405,8 +405,8 @@ def bench_detect(
 
 
 def _outcomes_text(name: str, row: dict) -> str:
-    o = row.get("fault_outcomes") or {}
-    if o.get("called") is None:
+    o = row["fault_outcomes"]
+    if o["called"] is None:
         return f"{name} none shows a fault"
     return f"{name} " + " / ".join(f"{o[k]:.2f}" for k in ("called", "leaning", "bad_data", "read_healthy"))
 

@@ -12,7 +12,7 @@ def test_stopping_the_pool_ends_a_worker_busy_with_a_long_sizing():
     busy = pool.submit(time.sleep, 60)  # a sizing that would outlast any reasonable stop
     queued = pool.submit(time.sleep, 60)
     deadline = time.monotonic() + 60
-    while not busy.running() and time.monotonic() < deadline:  # the spawned worker has taken it
+    while not busy.running() and time.monotonic() < deadline:  # queued for the spawned worker (it may not have it yet)
         time.sleep(0.05)
     assert busy.running()
     workers = list(pool._processes.values())
